@@ -1,0 +1,64 @@
+#pragma once
+// Cubic spline kernel (Monaghan 2005) in 3D, written with the support radius h (W = 0 for r >= h).
+// METHOD.md: h = 2 x spacing.
+
+#include <cmath>
+
+#include "fluid_sim/core/types.h"
+
+namespace fluid_sim
+{
+class CubicKernel
+{
+public:
+  explicit CubicKernel(Real support) : h_(support), inv_h_(Real(1) / support)
+  {
+    const Real h3 = support * support * support;
+    k_ = Real(8.0 / M_PI) / h3;   // 1/m^3: normalisation of W
+    l_ = Real(48.0 / M_PI) / h3;  // 1/m^3: normalisation of dW/dq
+    w_zero_ = k_;
+  }
+
+  Real support() const
+  {
+    return h_;
+  }
+
+  /// W(r), 1/m^3.
+  Real W(Real r) const
+  {
+    const Real q = r * inv_h_;
+    if (q >= Real(1))
+      return Real(0);
+    if (q <= Real(0.5))
+      return k_ * (Real(6) * q * q * (q - Real(1)) + Real(1));
+    const Real a = Real(1) - q;
+    return k_ * Real(2) * a * a * a;
+  }
+  Real W(const Vec3& r) const
+  {
+    return W(r.norm());
+  }
+  Real W0() const
+  {
+    return w_zero_;
+  }
+
+  /// Gradient of W with respect to the first particle, r = x_i - x_j; 1/m^4.
+  Vec3 gradW(const Vec3& r) const
+  {
+    const Real rl2 = r.squaredNorm();
+    if (rl2 >= h_ * h_ || rl2 < Real(1e-18) * h_ * h_)
+      return Vec3::Zero();
+    const Real rl = std::sqrt(rl2);
+    const Real q = rl * inv_h_;
+    const Real factor = q <= Real(0.5) ? l_ * q * (Real(3) * q - Real(2)) : -l_ * (Real(1) - q) * (Real(1) - q);
+    // dW/dr = factor / h; direction r / |r|.
+    return r * (factor * inv_h_ / rl);
+  }
+
+private:
+  Real h_, inv_h_, k_, l_, w_zero_;
+};
+
+}  // namespace fluid_sim

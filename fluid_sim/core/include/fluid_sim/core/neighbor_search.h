@@ -1,0 +1,116 @@
+#pragma once
+// Uniform-grid neighbour search over a fixed, dense grid covering the scene domain.
+// Cells are ordered x-fastest, so the three cells of a row along x are one contiguous range of
+// sorted points: a query visits 9 ranges instead of 27 cells.
+
+#include <vector>
+
+#include "fluid_sim/core/types.h"
+
+namespace fluid_sim
+{
+class UniformGrid
+{
+public:
+  static constexpr Index kOutside = ~Index(0);
+
+  /// Covers [min, max] (m) plus `margin` cells on every side; cell edge `cell_size` (m).
+  UniformGrid(const Vec3d& min, const Vec3d& max, double cell_size, int margin = 1);
+
+  /// Linear cell index of `p`, or kOutside.
+  Index cellOf(const Vec3& p) const;
+
+  /// Counting sort of `points` by cell. Afterwards `order()[k]` is the index (into `points`) of the
+  /// k-th point in cell order, and cellRange(c) gives the range of k for cell c. Points outside
+  /// the grid are put last and belong to no cell.
+  void build(const std::vector<Vec3>& points);
+
+  const std::vector<Index>& order() const
+  {
+    return order_;
+  }
+  const std::vector<Index>& cells() const
+  {
+    return cell_of_point_;
+  }  // per input point (before sorting)
+  std::size_t numInside() const
+  {
+    return num_inside_;
+  }
+  double cellSize() const
+  {
+    return cell_;
+  }
+
+  /// Calls f(begin, end) for each contiguous range (in sorted order) of points in the cells within
+  /// `reach` cells of p's cell. Nothing when p is outside the grid.
+  template <class F>
+  void forEachRange(const Vec3& p, int reach, F&& f) const
+  {
+    const double fx = (double(p.x()) - origin_.x()) * inv_cell_;
+    const double fy = (double(p.y()) - origin_.y()) * inv_cell_;
+    const double fz = (double(p.z()) - origin_.z()) * inv_cell_;
+    if (!(fx >= 0 && fy >= 0 && fz >= 0))
+      return;
+    const int ix = int(fx), iy = int(fy), iz = int(fz);
+    if (ix >= dims_[0] || iy >= dims_[1] || iz >= dims_[2])
+      return;
+    const int x0 = std::max(ix - reach, 0), x1 = std::min(ix + reach, dims_[0] - 1);
+    const int y0 = std::max(iy - reach, 0), y1 = std::min(iy + reach, dims_[1] - 1);
+    const int z0 = std::max(iz - reach, 0), z1 = std::min(iz + reach, dims_[2] - 1);
+    for (int z = z0; z <= z1; ++z)
+      for (int y = y0; y <= y1; ++y)
+      {
+        const std::size_t row = std::size_t(dims_[0]) * (std::size_t(y) + std::size_t(dims_[1]) * z);
+        const Index begin = cell_start_[row + x0];
+        const Index end = cell_start_[row + x1 + 1];
+        if (begin < end)
+          f(begin, end);
+      }
+  }
+
+private:
+  Vec3d origin_;
+  double cell_, inv_cell_;
+  int dims_[3];
+  std::vector<Index> cell_start_;  // size cells + 1
+  std::vector<Index> cell_of_point_;
+  std::vector<Index> order_;
+  std::vector<Index> cursor_;
+  std::size_t num_inside_ = 0;
+};
+
+/// Compressed rows of neighbours: row i holds index[offset[i] .. offset[i+1]) and, per pair, a
+/// scalar `factor` whose meaning the builder defines (e.g. dW/dr / r so that grad W = factor * r).
+struct NeighborLists
+{
+  std::vector<Index> offset;  // size rows + 1
+  std::vector<Index> index;
+  std::vector<Real> factor;
+  // Per-block staging reused from step to step (kept here so that rebuilding allocates nothing).
+  std::vector<std::vector<Index>> scratch_index;
+  std::vector<std::vector<Real>> scratch_factor;
+
+  std::size_t rows() const
+  {
+    return offset.empty() ? 0 : offset.size() - 1;
+  }
+  std::size_t pairs() const
+  {
+    return index.size();
+  }
+};
+
+/// Builds `out` for the `queries` against the points in `grid` (whose sorted positions are
+/// `sorted_points`, i.e. points in grid order; `ids` maps a sorted position to the stored index, or
+/// is empty for identity). `pairFactor(r_vec, r2) -> Real` gives the stored factor. With
+/// `skip_self`, query i never lists point i (queries and points are the same set, identity ids).
+/// Parallel over queries; the result does not depend on the thread count.
+template <class PairFactor>
+void buildNeighborLists(const std::vector<Vec3>& queries, const UniformGrid& grid,
+                        const std::vector<Vec3>& sorted_points, const std::vector<Index>& ids, Real radius,
+                        bool skip_self, PairFactor&& pairFactor, NeighborLists& out);
+
+}  // namespace fluid_sim
+
+#include "fluid_sim/core/neighbor_search_impl.h"

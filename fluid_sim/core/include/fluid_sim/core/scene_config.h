@@ -1,0 +1,187 @@
+#pragma once
+// The scene as plain data: what the YAML file (io) or the ROS parameters fill in and what
+// Simulation is built from. Every field documents its scene key and unit. validate() checks
+// ranges and consistency and throws ConfigError naming the key.
+
+#include <array>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "fluid_sim/core/types.h"
+
+namespace fluid_sim
+{
+enum class BoundaryPressureMethod
+{
+  Mirroring,         // Akinci 2012: p_b := p_f (paper Eq. 2)
+  SphExtrapolation,  // Adami 2012 (paper Eq. 3)
+  Mls                // the paper's MLS extrapolation (Eqs. 7-16)
+};
+
+/// "mirroring" | "sph" | "mls"
+const char* toString(BoundaryPressureMethod method);
+/// Throws ConfigError(key, ...) for an unknown name.
+BoundaryPressureMethod parseBoundaryPressureMethod(const std::string& name, const std::string& key);
+
+/// How MLS treats a (nearly) singular moment matrix M_b (METHOD.md choice 4).
+enum class MlsSingularMode
+{
+  Fallback,      // Eq. 16: p_b = alpha_b whenever the smallest eigenvalue ratio is below the tolerance
+  PseudoInverse  // drop only the weak directions; keep the observable slopes
+};
+const char* toString(MlsSingularMode mode);
+
+struct AxisBox
+{
+  Vec3d min = Vec3d::Zero();  // m
+  Vec3d max = Vec3d::Zero();  // m
+};
+
+struct SphereShape
+{
+  Vec3d center = Vec3d::Zero();  // m
+  double radius = 0.0;           // m
+};
+
+/// A closed cylinder (side and both caps). `center` is the midpoint of its axis segment.
+struct CylinderShape
+{
+  Vec3d center = Vec3d::Zero();        // m
+  Vec3d axis = Vec3d::UnitZ();         // unit-less direction, normalised by validate()
+  double radius = 0.0;                 // m
+  double length = 0.0;                 // m, along axis
+};
+
+/// A triangle mesh in the body frame. Triangles index `vertices`.
+struct TriangleMesh
+{
+  std::vector<Vec3d> vertices;                 // m
+  std::vector<std::array<int, 3>> triangles;  // vertex indices
+};
+
+enum class ShapeType
+{
+  Box,
+  Sphere,
+  Cylinder,
+  Mesh
+};
+
+/// Scripted rigid motion: x(t) = about + R(angular_velocity * t) (x(0) - about) + linear_velocity * t.
+struct MotionConfig
+{
+  Vec3d angular_velocity = Vec3d::Zero();  // rad/s, world frame          key: motion.angular_velocity
+  Vec3d about = Vec3d::Zero();             // m, a point on the axis       key: motion.about
+  Vec3d linear_velocity = Vec3d::Zero();   // m/s                          key: motion.linear_velocity
+  bool isStatic() const
+  {
+    return angular_velocity.isZero(0) && linear_velocity.isZero(0);
+  }
+};
+
+/// How a mesh surface is placed relative to its boundary-particle layer.
+enum class SurfaceOffset
+{
+  Auto,  // half a spacing into the solid (or outside a container), like primitives
+  None   // on the surface itself (thin-walled open shapes: a cup, a paddle)
+};
+
+struct BoundaryConfig
+{
+  std::string name;             // key: name (default: shape type and index)
+  ShapeType type = ShapeType::Box;
+  AxisBox box;                  // key: box {min, max}
+  SphereShape sphere;           // key: sphere {center, radius}
+  CylinderShape cylinder;       // key: cylinder {center, axis, radius, length}
+  TriangleMesh mesh;            // filled by io from mesh files / URDF links
+  bool mesh_closed = true;      // set by io: false for an open mesh (cup, paddle)
+  SurfaceOffset mesh_offset = SurfaceOffset::Auto;
+  bool inside = false;          // key: inside; true = a container (fluid stays inside)
+  Pose pose;                    // body frame -> world at t = 0 (key: pose {xyz, rpy})
+  MotionConfig motion;          // key: motion
+  bool externally_posed = false;  // the caller poses it every step (ROS node through tf)
+  double sample_spacing = 0.0;  // m, 0 = scene spacing; may be finer          key: sample_spacing
+};
+
+struct FluidBlockConfig
+{
+  AxisBox box;                           // key: box {min, max}, m
+  Vec3d velocity = Vec3d::Zero();        // key: velocity, m/s
+};
+
+struct TimeStepConfig
+{
+  bool adaptive = false;  // {cfl: ...} given
+  double fixed = 0.001;   // s                 key: time_step.fixed
+  double cfl = 0.4;       // dimensionless     key: time_step.cfl (dt = cfl * spacing / max speed)
+  double min = 1.0e-5;    // s                 key: time_step.min
+  double max = 0.005;     // s                 key: time_step.max
+};
+
+enum class ViscosityModel
+{
+  None,
+  Artificial,  // Monaghan-style artificial viscosity (coefficient = kinematic viscosity nu, m^2/s)
+  Xsph         // XSPH velocity smoothing (coefficient dimensionless, 0..1)
+};
+const char* toString(ViscosityModel model);
+
+struct ViscosityConfig
+{
+  ViscosityModel model = ViscosityModel::None;  // key: viscosity.model: none | artificial | xsph
+  double coefficient = 0.0;  // key: viscosity.coefficient (m^2/s for artificial, unit-less for xsph)
+  double boundary = 0.0;     // key: viscosity.boundary: same units against walls; > 0 = no-slip-like walls
+};
+
+struct SolverConfig
+{
+  BoundaryPressureMethod boundary_pressure = BoundaryPressureMethod::Mls;  // key: solver.boundary_pressure
+  double density_error = 0.001;     // relative, mean over particles   key: solver.density_error
+  double divergence_error = 0.001;  // relative per step                key: solver.divergence_error
+  int min_iterations = 2;           // density solve                    key: solver.min_iterations
+  int max_iterations = 100;         // both solves                      key: solver.max_iterations
+  int min_divergence_iterations = 1;  //                                key: solver.min_divergence_iterations
+  bool divergence_solve = true;     // key: solver.divergence_solve (paper Sec. 5.1 runs without it)
+  bool warm_start = false;          // key: solver.warm_start
+  double omega = 0.5;               // relaxed Jacobi factor            key: solver.omega
+  bool clamp_boundary_pressure = true;  // p_b >= 0 in the density solve key: solver.clamp_boundary_pressure
+  double mls_fit_radius = 3.0;      // spacings; radius of the MLS fit  key: solver.mls_fit_radius
+  double mls_eigen_tolerance = 0.02;  // smallest/largest eigenvalue    key: solver.mls_eigen_tolerance
+  MlsSingularMode mls_singular = MlsSingularMode::Fallback;  //         key: solver.mls_singular
+};
+
+/// When a run is declared unstable (reported, never thrown).
+struct StabilityConfig
+{
+  double max_density_error = 0.1;  // mean relative density error   key: stability.max_density_error
+  double max_cfl = 2.0;            // max speed * dt / spacing        key: stability.max_cfl
+};
+
+struct OutputConfig
+{
+  double frame_interval = 0.01;  // s between PLY frames; 0 = none   key: output.frame_interval
+};
+
+struct SceneConfig
+{
+  std::string source = "<scene>";  // file name, for messages
+  double spacing = 0.02;           // m; kernel support is 2 x spacing   key: spacing
+  double rest_density = 1000.0;    // kg/m^3                            key: rest_density
+  Vec3d gravity{0.0, 0.0, -9.81};  // m/s^2                             key: gravity
+  AxisBox domain{Vec3d(-1, -1, -1), Vec3d(2, 2, 2)};  // m              key: domain
+  TimeStepConfig time_step;
+  SolverConfig solver;
+  ViscosityConfig viscosity;
+  StabilityConfig stability;
+  std::vector<FluidBlockConfig> fluid;       // key: fluid
+  std::vector<BoundaryConfig> boundaries;    // key: boundaries
+  OutputConfig output;
+  double duration = 1.0;  // s, default run length for the runner     key: duration
+};
+
+/// Checks ranges and consistency; throws ConfigError whose key is the dotted scene key
+/// (e.g. "solver.density_error", "boundaries[1].sphere.radius").
+void validate(const SceneConfig& scene);
+
+}  // namespace fluid_sim

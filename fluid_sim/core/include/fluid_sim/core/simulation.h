@@ -1,0 +1,110 @@
+#pragma once
+// The simulation facade: built from a SceneConfig, advanced with step(), read through
+// accessors. Used by the headless runner, the benchmark, the tests and the ROS node.
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "fluid_sim/core/scene_config.h"
+#include "fluid_sim/core/types.h"
+
+namespace fluid_sim
+{
+/// What one step did. step() never throws for a hard physical state; it reports it here.
+struct StepReport
+{
+  double time = 0.0;  // s, simulated time after the step
+  double dt = 0.0;    // s, the step just taken
+  int divergence_iterations = 0;
+  int density_iterations = 0;
+  bool divergence_converged = true;
+  bool density_converged = true;
+  double divergence_error = 0.0;    // mean relative density change per step (positive part)
+  double density_error = 0.0;       // mean relative density error (positive part), final
+  double max_density_error = 0.0;   // max relative (rho - rho0)/rho0 at the start of the step
+  double max_speed = 0.0;           // m/s after the step
+  std::size_t fluid_particles = 0;  // after the step
+  std::size_t removed = 0;          // particles that left the domain during this step
+  std::size_t mls_fallbacks = 0;    // boundary particles using Eq. 16 this step (MLS only)
+  std::size_t mls_reduced = 0;      // boundary particles with a pseudo-inverse fit (MLS only)
+  std::size_t active_boundary = 0;  // boundary particles with a fluid neighbour
+  bool unstable = false;
+  std::string reason;  // why unstable
+  // Wall-clock split of the step, ms.
+  double ms_total = 0.0;
+  double ms_neighbors = 0.0;
+  double ms_divergence = 0.0;
+  double ms_density = 0.0;
+};
+
+/// Read-only view of one boundary body.
+struct BodyInfo
+{
+  std::string name;
+  bool inside = false;
+  bool moving = false;
+  std::size_t first_particle = 0;  // range in boundaryPositions()
+  std::size_t num_particles = 0;
+  Pose pose;                 // current body -> world
+  Vec3d linear_velocity;     // m/s of the body origin
+  Vec3d angular_velocity;    // rad/s, world frame
+  Vec3d force;               // N, world frame, exerted by the fluid in the last step
+  Vec3d torque;              // N m, world frame, about the body origin
+  Vec3d force_body;          // N, the same force in the body frame
+  Vec3d torque_body;         // N m, the same torque in the body frame
+  std::size_t contact_particles = 0;  // boundary particles with a fluid neighbour
+  double max_pressure = 0.0;          // Pa, largest boundary pressure used (density solve)
+};
+
+class Simulation
+{
+public:
+  /// Validates the scene, samples bodies and fluid. Throws ConfigError on bad input.
+  explicit Simulation(const SceneConfig& scene);
+  ~Simulation();
+  Simulation(const Simulation&) = delete;
+  Simulation& operator=(const Simulation&) = delete;
+
+  /// Advances by one time step (fixed, or CFL-adaptive).
+  StepReport step();
+
+  /// Poses an externally driven body for the next step (at time() + next dt); its velocity
+  /// follows from the change of pose over the step. `index` from bodyIndex().
+  void setBodyPose(std::size_t index, const Pose& pose);
+  /// Index of the body with this name; throws ConfigError if there is none.
+  std::size_t bodyIndex(const std::string& name) const;
+
+  double time() const;
+  /// The time step the next step() will take, s.
+  double nextTimeStep() const;
+  const SceneConfig& scene() const;
+
+  std::size_t numFluidParticles() const;
+  const std::vector<Vec3>& positions() const;   // m
+  const std::vector<Vec3>& velocities() const;  // m/s
+  /// Pa: the pressure that acted on each particle during the last step, the sum of the
+  /// divergence-solve and density-solve pressures (each moves the velocity by dt a^p(p)).
+  /// At rest this is the hydrostatic pressure; either part alone is not.
+  const std::vector<Real>& pressures() const;
+  const std::vector<Real>& densitySolvePressures() const;     // Pa
+  const std::vector<Real>& divergenceSolvePressures() const;  // Pa
+  const std::vector<Real>& densities() const;   // kg/m^3
+
+  std::size_t numBodies() const;
+  BodyInfo body(std::size_t index) const;
+  const std::vector<Vec3>& boundaryPositions() const;  // m, world
+  const std::vector<Real>& boundaryPressures() const;  // Pa, last density-solve values (0 for mirroring)
+  const std::vector<Real>& boundaryVolumes() const;    // m^3
+
+  std::size_t initialFluidParticles() const;  // sampled fluid particles kept at start
+  std::size_t removedAtStart() const;         // lattice points dropped inside solids / outside containers
+  std::size_t removedTotal() const;           // particles that left the domain since start
+  double particleMass() const;                // kg
+
+private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace fluid_sim

@@ -1,0 +1,213 @@
+#include "fluid_sim/core/scene_config.h"
+
+#include <cmath>
+#include <sstream>
+
+namespace fluid_sim
+{
+const char* toString(BoundaryPressureMethod method)
+{
+  switch (method)
+  {
+    case BoundaryPressureMethod::Mirroring:
+      return "mirroring";
+    case BoundaryPressureMethod::SphExtrapolation:
+      return "sph";
+    case BoundaryPressureMethod::Mls:
+      return "mls";
+  }
+  return "?";
+}
+
+BoundaryPressureMethod parseBoundaryPressureMethod(const std::string& name, const std::string& key)
+{
+  if (name == "mirroring")
+    return BoundaryPressureMethod::Mirroring;
+  if (name == "sph")
+    return BoundaryPressureMethod::SphExtrapolation;
+  if (name == "mls")
+    return BoundaryPressureMethod::Mls;
+  throw ConfigError(key, "unknown boundary pressure method '" + name + "' (expected mirroring, sph or mls)");
+}
+
+const char* toString(MlsSingularMode mode)
+{
+  return mode == MlsSingularMode::Fallback ? "fallback" : "pseudo_inverse";
+}
+
+const char* toString(ViscosityModel model)
+{
+  switch (model)
+  {
+    case ViscosityModel::None:
+      return "none";
+    case ViscosityModel::Artificial:
+      return "artificial";
+    case ViscosityModel::Xsph:
+      return "xsph";
+  }
+  return "?";
+}
+
+namespace
+{
+std::string str(double v)
+{
+  std::ostringstream os;
+  os << v;
+  return os.str();
+}
+
+void requireFinite(const Vec3d& v, const std::string& key)
+{
+  if (!v.allFinite())
+    throw ConfigError(key, "must be finite");
+}
+
+void requirePositive(double v, const std::string& key)
+{
+  if (!(v > 0.0) || !std::isfinite(v))
+    throw ConfigError(key, "must be > 0, got " + str(v));
+}
+
+void requireNonNegative(double v, const std::string& key)
+{
+  if (!(v >= 0.0) || !std::isfinite(v))
+    throw ConfigError(key, "must be >= 0, got " + str(v));
+}
+
+void requireBox(const AxisBox& box, const std::string& key)
+{
+  requireFinite(box.min, key + ".min");
+  requireFinite(box.max, key + ".max");
+  for (int k = 0; k < 3; ++k)
+    if (!(box.max[k] > box.min[k]))
+      throw ConfigError(key, "max must exceed min on every axis (axis " + std::to_string(k) + ": min " +
+                                 str(box.min[k]) + ", max " + str(box.max[k]) + ")");
+}
+
+bool boxInside(const AxisBox& inner, const AxisBox& outer)
+{
+  return (inner.min.array() >= outer.min.array()).all() && (inner.max.array() <= outer.max.array()).all();
+}
+}  // namespace
+
+void validate(const SceneConfig& s)
+{
+  requirePositive(s.spacing, "spacing");
+  requirePositive(s.rest_density, "rest_density");
+  requireFinite(s.gravity, "gravity");
+  requireBox(s.domain, "domain");
+  const Vec3d extent = s.domain.max - s.domain.min;
+  // A dense grid of cells of the kernel support covers the domain; refuse absurd sizes early.
+  const double cells = (extent / (2.0 * s.spacing)).array().ceil().prod();
+  if (cells > 2.0e8)
+    throw ConfigError("domain", "too large for spacing " + str(s.spacing) + " (" + str(cells) +
+                                    " grid cells); shrink the domain or enlarge the spacing");
+
+  const TimeStepConfig& ts = s.time_step;
+  if (ts.adaptive)
+  {
+    requirePositive(ts.cfl, "time_step.cfl");
+    if (ts.cfl > 2.0)
+      throw ConfigError("time_step.cfl", "must be <= 2, got " + str(ts.cfl));
+    requirePositive(ts.min, "time_step.min");
+    requirePositive(ts.max, "time_step.max");
+    if (ts.min > ts.max)
+      throw ConfigError("time_step.min", "must not exceed time_step.max");
+  }
+  else
+  {
+    requirePositive(ts.fixed, "time_step.fixed");
+    if (ts.fixed > 0.1)
+      throw ConfigError("time_step.fixed", "must be <= 0.1 s, got " + str(ts.fixed));
+  }
+
+  const SolverConfig& sv = s.solver;
+  requirePositive(sv.density_error, "solver.density_error");
+  requirePositive(sv.divergence_error, "solver.divergence_error");
+  if (sv.min_iterations < 0)
+    throw ConfigError("solver.min_iterations", "must be >= 0, got " + std::to_string(sv.min_iterations));
+  if (sv.max_iterations < 1)
+    throw ConfigError("solver.max_iterations", "must be >= 1, got " + std::to_string(sv.max_iterations));
+  if (sv.min_iterations > sv.max_iterations)
+    throw ConfigError("solver.min_iterations", "must not exceed solver.max_iterations");
+  if (sv.min_divergence_iterations < 0 || sv.min_divergence_iterations > sv.max_iterations)
+    throw ConfigError("solver.min_divergence_iterations", "must be in [0, solver.max_iterations]");
+  if (!(sv.omega > 0.0 && sv.omega <= 1.0))
+    throw ConfigError("solver.omega", "must be in (0, 1], got " + str(sv.omega));
+  if (!(sv.mls_fit_radius >= 1.0 && sv.mls_fit_radius <= 4.0))
+    throw ConfigError("solver.mls_fit_radius", "must be in [1, 4] spacings, got " + str(sv.mls_fit_radius));
+  if (!(sv.mls_eigen_tolerance > 0.0 && sv.mls_eigen_tolerance < 1.0))
+    throw ConfigError("solver.mls_eigen_tolerance", "must be in (0, 1), got " + str(sv.mls_eigen_tolerance));
+
+  requireNonNegative(s.viscosity.coefficient, "viscosity.coefficient");
+  requireNonNegative(s.viscosity.boundary, "viscosity.boundary");
+  if (s.viscosity.model == ViscosityModel::Xsph && (s.viscosity.coefficient > 1.0 || s.viscosity.boundary > 1.0))
+    throw ConfigError("viscosity.coefficient", "XSPH coefficients must be <= 1");
+
+  requirePositive(s.stability.max_density_error, "stability.max_density_error");
+  requirePositive(s.stability.max_cfl, "stability.max_cfl");
+  requireNonNegative(s.output.frame_interval, "output.frame_interval");
+  requireNonNegative(s.duration, "duration");
+
+  if (s.fluid.empty())
+    throw ConfigError("fluid", "the scene has no fluid block");
+  for (std::size_t i = 0; i < s.fluid.size(); ++i)
+  {
+    const std::string key = "fluid[" + std::to_string(i) + "]";
+    requireBox(s.fluid[i].box, key + ".box");
+    requireFinite(s.fluid[i].velocity, key + ".velocity");
+    if (!boxInside(s.fluid[i].box, s.domain))
+      throw ConfigError(key + ".box", "fluid block lies (partly) outside the domain");
+  }
+
+  for (std::size_t i = 0; i < s.boundaries.size(); ++i)
+  {
+    const BoundaryConfig& b = s.boundaries[i];
+    const std::string key = "boundaries[" + std::to_string(i) + "]";
+    if (b.name.empty())
+      throw ConfigError(key + ".name", "must not be empty");
+    for (std::size_t j = 0; j < i; ++j)
+      if (s.boundaries[j].name == b.name)
+        throw ConfigError(key + ".name", "duplicate boundary name '" + b.name + "'");
+    switch (b.type)
+    {
+      case ShapeType::Box:
+        requireBox(b.box, key + ".box");
+        break;
+      case ShapeType::Sphere:
+        requireFinite(b.sphere.center, key + ".sphere.center");
+        requirePositive(b.sphere.radius, key + ".sphere.radius");
+        break;
+      case ShapeType::Cylinder:
+        requireFinite(b.cylinder.center, key + ".cylinder.center");
+        requireFinite(b.cylinder.axis, key + ".cylinder.axis");
+        if (b.cylinder.axis.norm() < 1e-12)
+          throw ConfigError(key + ".cylinder.axis", "must not be zero");
+        requirePositive(b.cylinder.radius, key + ".cylinder.radius");
+        requirePositive(b.cylinder.length, key + ".cylinder.length");
+        break;
+      case ShapeType::Mesh:
+        if (b.mesh.triangles.empty())
+          throw ConfigError(key + ".mesh", "mesh of '" + b.name + "' has no triangles");
+        for (const auto& v : b.mesh.vertices)
+          if (!v.allFinite())
+            throw ConfigError(key + ".mesh", "mesh of '" + b.name + "' has a NaN or infinite vertex");
+        for (const auto& t : b.mesh.triangles)
+          for (int k : t)
+            if (k < 0 || k >= static_cast<int>(b.mesh.vertices.size()))
+              throw ConfigError(key + ".mesh", "mesh of '" + b.name + "' has a triangle index out of range");
+        break;
+    }
+    requireFinite(b.pose.translation, key + ".pose.xyz");
+    requireFinite(b.motion.angular_velocity, key + ".motion.angular_velocity");
+    requireFinite(b.motion.about, key + ".motion.about");
+    requireFinite(b.motion.linear_velocity, key + ".motion.linear_velocity");
+    requireNonNegative(b.sample_spacing, key + ".sample_spacing");
+    if (b.sample_spacing > s.spacing)
+      throw ConfigError(key + ".sample_spacing", "must not exceed the scene spacing " + str(s.spacing));
+  }
+}
+
+}  // namespace fluid_sim

