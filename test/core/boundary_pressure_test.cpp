@@ -32,11 +32,9 @@ Neighbourhood neighbourhood(const Vec3& xb, Real s, Real radius, bool half_empty
       for (int i = -reach; i <= reach; ++i)
       {
         const Vec3 x = xb + Vec3(i * s + jitter(rng), j * s + jitter(rng), (k + Real(0.5)) * s + jitter(rng));
-        if (half_empty && x.z() < xb.z() + Real(0.25) * s)
-          continue;
+        if (half_empty && x.z() < xb.z() + Real(0.25) * s) continue;
         const Real W = kernel.W((xb - x).norm());
-        if (W <= 0)
-          continue;
+        if (W <= 0) continue;
         n.x.push_back(x);
         n.wk.push_back(W);
         n.rho.push_back(Real(1000) + Real(5) * jitter(rng) / s);
@@ -49,13 +47,11 @@ Real extrapolateMls(const Vec3& xb, const Neighbourhood& n, const std::vector<Re
                     MlsSingularMode mode = MlsSingularMode::Fallback, double tol = 0.02)
 {
   std::vector<Real> c(n.x.size());
-  const MlsFit f =
-      mlsCoefficients(xb, int(n.x.size()), [&](int k) { return n.x[k]; }, n.w.data(), radius, tol, mode, c.data());
-  if (fit)
-    *fit = f;
+  const MlsFit f = mlsCoefficients(
+      xb, int(n.x.size()), [&](int k) { return n.x[k]; }, n.w.data(), radius, tol, mode, c.data());
+  if (fit) *fit = f;
   double pb = 0;
-  for (std::size_t k = 0; k < c.size(); ++k)
-    pb += double(c[k]) * p[k];
+  for (std::size_t k = 0; k < c.size(); ++k) pb += double(c[k]) * p[k];
   return Real(pb);
 }
 }  // namespace
@@ -74,8 +70,7 @@ TEST(MlsExtrapolation, ReproducesLinearFieldsToRoundOff)
       const Real p0 = 1234;
       const Vec3 G(Real(300), Real(-150), Real(-9810));
       std::vector<Real> p;
-      for (const Vec3& x : n.x)
-        p.push_back(p0 + G.dot(x - xb));
+      for (const Vec3& x : n.x) p.push_back(p0 + G.dot(x - xb));
       MlsFit fit;
       const Real pb = extrapolateMls(xb, n, p, radius, &fit, MlsSingularMode::PseudoInverse, 1e-6);
       EXPECT_EQ(fit, MlsFit::Full) << "radius " << radius << " half " << half;
@@ -93,16 +88,14 @@ TEST(SphExtrapolation, ShowsItsDeficiencyErrorWhereMlsIsExact)
   const Neighbourhood n = neighbourhood(xb, s, 2 * s, true, 3);
   const Vec3 G(0, 0, -9810);  // Pa/m
   std::vector<Real> p;
-  for (const Vec3& x : n.x)
-    p.push_back(Real(5000) + G.dot(x - xb));
+  for (const Vec3& x : n.x) p.push_back(Real(5000) + G.dot(x - xb));
   std::vector<Real> c(n.x.size());
   Real constant = 0;
   sphCoefficients(
       xb, int(n.x.size()), [&](int k) { return n.x[k]; }, [&](int k) { return n.rho[k]; }, n.wk.data(), Vec3::Zero(),
       c.data(), constant);
   double sph = constant;
-  for (std::size_t k = 0; k < c.size(); ++k)
-    sph += double(c[k]) * p[k];
+  for (std::size_t k = 0; k < c.size(); ++k) sph += double(c[k]) * p[k];
   const Real mls = extrapolateMls(xb, n, p, 2 * s, nullptr, MlsSingularMode::PseudoInverse, 1e-6);
   const double sph_error = std::abs(sph - 5000.0), mls_error = std::abs(mls - 5000.0);
   EXPECT_GT(sph_error, 0.5 * 9810 * s);  // the centre lies about a spacing above b
@@ -113,8 +106,7 @@ TEST(SphExtrapolation, ShowsItsDeficiencyErrorWhereMlsIsExact)
       xb, int(n.x.size()), [&](int k) { return n.x[k]; }, [&](int k) { return n.rho[k]; }, n.wk.data(),
       Vec3(0, 0, Real(-9.81)), c.data(), constant);
   double sph_g = constant;
-  for (std::size_t k = 0; k < c.size(); ++k)
-    sph_g += double(c[k]) * p[k];
+  for (std::size_t k = 0; k < c.size(); ++k) sph_g += double(c[k]) * p[k];
   EXPECT_LT(std::abs(sph_g - 5000.0), 0.1 * sph_error);
 }
 
@@ -123,13 +115,12 @@ TEST(MlsExtrapolation, SingularNeighbourhoodsFallBackWithoutNaN)
   const Real s = Real(0.02);
   const Vec3 xb(0, 0, 0);
   std::vector<std::vector<Vec3>> cases = {
-      {Vec3(0, 0, s)},                                                                     // one neighbour
+      {Vec3(0, 0, s)},                                                                        // one neighbour
       {Vec3(0, 0, s), Vec3(s, 0, s), Vec3(2 * s, 0, s), Vec3(-s, 0, s), Vec3(-2 * s, 0, s)},  // collinear
-      {},                                                                                  // coplanar (below)
+      {},                                                                                     // coplanar (below)
   };
   for (int i = -1; i <= 1; ++i)
-    for (int j = -1; j <= 1; ++j)
-      cases[2].push_back(Vec3(i * s, j * s, s));
+    for (int j = -1; j <= 1; ++j) cases[2].push_back(Vec3(i * s, j * s, s));
   for (std::size_t c = 0; c < cases.size(); ++c)
   {
     const auto& xs = cases[c];
@@ -182,7 +173,6 @@ TEST(MlsExtrapolation, PseudoInverseKeepsObservableSlopesOnACoplanarNeighbourhoo
       coef.data());
   EXPECT_EQ(fit, MlsFit::Reduced);
   double pb = 0;
-  for (std::size_t k = 0; k < xs.size(); ++k)
-    pb += double(coef[k]) * p[k];
+  for (std::size_t k = 0; k < xs.size(); ++k) pb += double(coef[k]) * p[k];
   EXPECT_NEAR(pb, 1000 + 5000 * xb.x(), 1e-2);
 }

@@ -60,21 +60,17 @@ Averages settleAndAverage(Simulation& sim, double settle, double window, double 
   {
     const StepReport r = sim.step();
     EXPECT_FALSE(r.unstable) << r.reason;
-    if (r.unstable)
-      break;
-    if (sim.time() <= settle)
-      continue;
+    if (r.unstable) break;
+    if (sim.time() <= settle) continue;
     ++steps;
     out.max_speed = std::max(out.max_speed, r.max_speed);
     out.tank_force += sim.body(0).force;
-    if (sim.numBodies() > 1)
-      out.body_force += sim.body(1).force;
+    if (sim.numBodies() > 1) out.body_force += sim.body(1).force;
     for (std::size_t i = 0; i < sim.numFluidParticles(); ++i)
     {
       const double d = out.water_height - sim.positions()[i].z();
       const int b = int(std::floor(d / s));
-      if (b < 0 || b >= bins)
-        continue;
+      if (b < 0 || b >= bins) continue;
       out.pressure[b] += sim.pressures()[i];
       out.exact[b] += sc.rest_density * kG * d;
       ++count[b];

@@ -13,8 +13,7 @@ TEST(Kernel, IntegratesToOneOverFineLattice)
   const int n = 41;
   for (int k = -n; k <= n; ++k)
     for (int j = -n; j <= n; ++j)
-      for (int i = -n; i <= n; ++i)
-        sum += kernel.W(Real(dx * std::sqrt(double(i * i + j * j + k * k))));
+      for (int i = -n; i <= n; ++i) sum += kernel.W(Real(dx * std::sqrt(double(i * i + j * j + k * k))));
   EXPECT_NEAR(sum * dx * dx * dx, 1.0, 1e-3);
 }
 
@@ -27,8 +26,7 @@ TEST(Kernel, ParticleLatticeAtHalfSupportGivesRestDensity)
   double sum = 0.0;
   for (int k = -2; k <= 2; ++k)
     for (int j = -2; j <= 2; ++j)
-      for (int i = -2; i <= 2; ++i)
-        sum += kernel.W(Vec3(i * s, j * s, k * s));
+      for (int i = -2; i <= 2; ++i) sum += kernel.W(Vec3(i * s, j * s, k * s));
   EXPECT_NEAR(sum * s * s * s, 1.0, 2e-3);
 }
 

@@ -14,10 +14,8 @@ std::vector<Vec3> randomPoints(std::size_t n, unsigned seed)
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> u(-0.5, 0.3);  // negative coordinates on purpose
   std::vector<Vec3> pts;
-  for (std::size_t i = 0; i < n; ++i)
-    pts.push_back(Vec3(Real(u(rng)), Real(u(rng)), Real(u(rng))));
-  for (std::size_t i = 0; i < n / 20; ++i)
-    pts.push_back(pts[i * 7 % n]);  // exact duplicates
+  for (std::size_t i = 0; i < n; ++i) pts.push_back(Vec3(Real(u(rng)), Real(u(rng)), Real(u(rng))));
+  for (std::size_t i = 0; i < n / 20; ++i) pts.push_back(pts[i * 7 % n]);  // exact duplicates
   return pts;
 }
 
@@ -27,8 +25,7 @@ std::vector<std::vector<Index>> bruteForce(const std::vector<Vec3>& q, const std
   std::vector<std::vector<Index>> out(q.size());
   for (std::size_t i = 0; i < q.size(); ++i)
     for (std::size_t j = 0; j < pts.size(); ++j)
-      if ((q[i] - pts[j]).squaredNorm() < r * r && !(skip_self && i == j))
-        out[i].push_back(Index(j));
+      if ((q[i] - pts[j]).squaredNorm() < r * r && !(skip_self && i == j)) out[i].push_back(Index(j));
   return out;
 }
 
@@ -52,13 +49,13 @@ TEST(NeighborSearch, SelfQueryEqualsBruteForceAfterSorting)
   grid.build(pts);
   // Re-sort the points into grid order (as the simulation does) and rebuild.
   std::vector<Vec3> sorted(pts.size());
-  for (std::size_t k = 0; k < pts.size(); ++k)
-    sorted[k] = pts[grid.order()[k]];
+  for (std::size_t k = 0; k < pts.size(); ++k) sorted[k] = pts[grid.order()[k]];
   grid.build(sorted);
   for (std::size_t k = 0; k < sorted.size(); ++k)
     ASSERT_EQ(grid.order()[k], k) << "sorting a sorted set must be the identity";
   NeighborLists lists;
-  buildNeighborLists(sorted, grid, sorted, {}, r, true, [](const Vec3&, Real d2) { return d2; }, lists);
+  buildNeighborLists(
+      sorted, grid, sorted, {}, r, true, [](const Vec3&, Real d2) { return d2; }, lists);
   EXPECT_EQ(rowsOf(lists), bruteForce(sorted, sorted, r, true));
   // Factors are the ones the callback produced for that pair.
   for (std::size_t i = 0; i < lists.rows(); ++i)
@@ -74,12 +71,12 @@ TEST(NeighborSearch, CrossQueryWithIdsAndLargerRadiusEqualsBruteForce)
   UniformGrid grid(Vec3d(-0.5, -0.5, -0.5), Vec3d(0.3, 0.3, 0.3), cell, 1);
   grid.build(pts);
   std::vector<Vec3> sorted(grid.numInside());
-  for (std::size_t k = 0; k < sorted.size(); ++k)
-    sorted[k] = pts[grid.order()[k]];
+  for (std::size_t k = 0; k < sorted.size(); ++k) sorted[k] = pts[grid.order()[k]];
   for (Real r : {Real(0.04), Real(0.06), Real(0.03)})  // 1.5 cells needs a reach of 2
   {
     NeighborLists lists;
-    buildNeighborLists(queries, grid, sorted, grid.order(), r, false, [](const Vec3&, Real) { return Real(1); }, lists);
+    buildNeighborLists(
+        queries, grid, sorted, grid.order(), r, false, [](const Vec3&, Real) { return Real(1); }, lists);
     EXPECT_EQ(rowsOf(lists), bruteForce(queries, pts, r, false)) << "radius " << r;
   }
 }

@@ -69,8 +69,7 @@ TEST(Simulation, FluidInsideSolidsOrOutsideContainersIsRemovedAndCounted)
   Simulation sim(s);
   EXPECT_EQ(sim.initialFluidParticles() + sim.removedAtStart(), 64u);
   EXPECT_GT(sim.removedAtStart(), 0u);
-  for (const Vec3& x : sim.positions())
-    EXPECT_GE((x.cast<double>() - Vec3d(0.1, 0.1, 0.1)).norm(), 0.06);
+  for (const Vec3& x : sim.positions()) EXPECT_GE((x.cast<double>() - Vec3d(0.1, 0.1, 0.1)).norm(), 0.06);
 }
 
 TEST(Simulation, FreeFallLeavesTheDomainAndIsCountedNotNaN)
@@ -86,8 +85,7 @@ TEST(Simulation, FreeFallLeavesTheDomainAndIsCountedNotNaN)
     const StepReport r = sim.step();
     ASSERT_FALSE(r.unstable) << r.reason;
     removed += r.removed;
-    for (const Vec3& x : sim.positions())
-      ASSERT_TRUE(x.allFinite());
+    for (const Vec3& x : sim.positions()) ASSERT_TRUE(x.allFinite());
   }
   EXPECT_EQ(sim.numFluidParticles(), 0u);
   EXPECT_EQ(removed, n);
@@ -107,8 +105,7 @@ TEST(Simulation, ScriptedRotationMovesBoundaryParticlesRigidly)
   s.time_step.fixed = 0.005;
   Simulation sim(s);
   const std::vector<Vec3> start = sim.boundaryPositions();
-  while (sim.time() < 1.0 - 1e-9)
-    sim.step();
+  while (sim.time() < 1.0 - 1e-9) sim.step();
   sim.step();  // poses are applied at the start of a step: this one poses at t = 1 s
   const BodyInfo info = sim.body(0);
   EXPECT_TRUE(info.moving);

@@ -42,7 +42,8 @@ struct CellKeyHash
 };
 CellKey keyOf(const Vec3d& p, double cell)
 {
-  return {(long long)std::floor(p.x() / cell), (long long)std::floor(p.y() / cell), (long long)std::floor(p.z() / cell)};
+  return {(long long)std::floor(p.x() / cell), (long long)std::floor(p.y() / cell),
+          (long long)std::floor(p.z() / cell)};
 }
 
 /// Ray parity along a fixed, slightly skewed direction (skewed so it rarely grazes edges).
@@ -56,19 +57,15 @@ bool insideClosedMesh(const TriangleMesh& mesh, const Vec3d& p)
     const Vec3d e1 = mesh.vertices[t[1]] - a, e2 = mesh.vertices[t[2]] - a;
     const Vec3d h = dir.cross(e2);
     const double det = e1.dot(h);
-    if (std::abs(det) < 1e-300)
-      continue;
+    if (std::abs(det) < 1e-300) continue;
     const double inv = 1.0 / det;
     const Vec3d sv = p - a;
     const double u = sv.dot(h) * inv;
-    if (u < 0.0 || u > 1.0)
-      continue;
+    if (u < 0.0 || u > 1.0) continue;
     const Vec3d qv = sv.cross(e1);
     const double v = dir.dot(qv) * inv;
-    if (v < 0.0 || u + v > 1.0)
-      continue;
-    if (e2.dot(qv) * inv > 0.0)
-      ++crossings;
+    if (v < 0.0 || u + v > 1.0) continue;
+    if (e2.dot(qv) * inv > 0.0) ++crossings;
   }
   return crossings % 2 == 1;
 }
@@ -85,8 +82,7 @@ std::vector<Vec3d> sampleBoxSurface(const AxisBox& box, double s)
       for (int i = 0; i <= n[0]; ++i)
       {
         const bool on_face = i == 0 || i == n[0] || j == 0 || j == n[1] || k == 0 || k == n[2];
-        if (!on_face)
-          continue;
+        if (!on_face) continue;
         const Vec3d f(n[0] ? double(i) / n[0] : 0.0, n[1] ? double(j) / n[1] : 0.0, n[2] ? double(k) / n[2] : 0.0);
         out.push_back(box.min + ext.cwiseProduct(f));
       }
@@ -187,8 +183,7 @@ std::vector<Vec3d> sampleMeshSurface(const TriangleMesh& mesh, double s, double 
         normals.push_back(unit_n);
       }
   }
-  if (degenerate)
-    *degenerate = skipped;
+  if (degenerate) *degenerate = skipped;
   std::vector<Vec3d> out;
   std::unordered_map<CellKey, std::vector<std::size_t>, CellKeyHash> grid;
   const double md2 = min_dist * min_dist;
@@ -202,8 +197,7 @@ std::vector<Vec3d> sampleMeshSurface(const TriangleMesh& mesh, double s, double 
         for (long long dx = -1; dx <= 1 && !close; ++dx)
         {
           auto it = grid.find({key.x + dx, key.y + dy, key.z + dz});
-          if (it == grid.end())
-            continue;
+          if (it == grid.end()) continue;
           for (std::size_t idx : it->second)
             if ((candidates[idx] - p).squaredNorm() < md2)
             {
@@ -211,8 +205,7 @@ std::vector<Vec3d> sampleMeshSurface(const TriangleMesh& mesh, double s, double 
               break;
             }
         }
-    if (close)
-      continue;
+    if (close) continue;
     grid[key].push_back(k);
     out.push_back(p + offset * normals[k]);
   }
@@ -290,16 +283,14 @@ double flatLayerVolumeFactor(double spacing, double support)
   const int reach = int(std::ceil(support / spacing));
   double sum = 0.0;
   for (int j = -reach; j <= reach; ++j)
-    for (int i = -reach; i <= reach; ++i)
-      sum += kernel.W(Real(spacing * std::sqrt(double(i * i + j * j))));
+    for (int i = -reach; i <= reach; ++i) sum += kernel.W(Real(spacing * std::sqrt(double(i * i + j * j))));
   return spacing * spacing * spacing * sum;
 }
 
 std::vector<Real> boundaryVolumes(const std::vector<Vec3d>& points, double support, double gamma)
 {
   std::vector<Real> volumes(points.size(), Real(0));
-  if (points.empty())
-    return volumes;
+  if (points.empty()) return volumes;
   Vec3d lo = points[0], hi = points[0];
   for (const auto& p : points)
   {
@@ -309,13 +300,11 @@ std::vector<Real> boundaryVolumes(const std::vector<Vec3d>& points, double suppo
   // Local frame around the bounding box centre keeps float coordinates precise.
   const Vec3d centre = 0.5 * (lo + hi);
   std::vector<Vec3> local(points.size());
-  for (std::size_t i = 0; i < points.size(); ++i)
-    local[i] = (points[i] - centre).cast<Real>();
+  for (std::size_t i = 0; i < points.size(); ++i) local[i] = (points[i] - centre).cast<Real>();
   UniformGrid grid(lo - centre, hi - centre, support, 1);
   grid.build(local);
   std::vector<Vec3> sorted(local.size());
-  for (std::size_t k = 0; k < local.size(); ++k)
-    sorted[k] = local[grid.order()[k]];
+  for (std::size_t k = 0; k < local.size(); ++k) sorted[k] = local[grid.order()[k]];
   const CubicKernel kernel{Real(support)};
   const Real h2 = Real(support * support);
   for (std::size_t i = 0; i < local.size(); ++i)
@@ -325,8 +314,7 @@ std::vector<Real> boundaryVolumes(const std::vector<Vec3d>& points, double suppo
       for (Index k = begin; k < end; ++k)
       {
         const Real d2 = (local[i] - sorted[k]).squaredNorm();
-        if (d2 < h2)
-          sum += kernel.W(std::sqrt(d2));
+        if (d2 < h2) sum += kernel.W(std::sqrt(d2));
       }
     });
     volumes[i] = Real(gamma / sum);  // sum > 0: it includes the point itself
@@ -344,8 +332,7 @@ void sortByCell(std::vector<Vec3d>& points, double cell)
   }
   std::sort(keys.begin(), keys.end());
   std::vector<Vec3d> out(points.size());
-  for (std::size_t i = 0; i < keys.size(); ++i)
-    out[i] = points[keys[i].second];
+  for (std::size_t i = 0; i < keys.size(); ++i) out[i] = points[keys[i].second];
   points.swap(out);
 }
 

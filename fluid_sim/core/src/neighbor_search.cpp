@@ -7,11 +7,10 @@
 namespace fluid_sim
 {
 UniformGrid::UniformGrid(const Vec3d& min, const Vec3d& max, double cell_size, int margin)
-  : cell_(cell_size), inv_cell_(1.0 / cell_size)
+    : cell_(cell_size), inv_cell_(1.0 / cell_size)
 {
   origin_ = min - Vec3d::Constant(margin * cell_size);
-  for (int k = 0; k < 3; ++k)
-    dims_[k] = int(std::ceil((max[k] - min[k]) * inv_cell_)) + 2 * margin + 1;
+  for (int k = 0; k < 3; ++k) dims_[k] = int(std::ceil((max[k] - min[k]) * inv_cell_)) + 2 * margin + 1;
   cell_start_.assign(std::size_t(dims_[0]) * dims_[1] * dims_[2] + 1, 0);
 }
 
@@ -21,8 +20,7 @@ Index UniformGrid::cellOf(const Vec3& p) const
   const double fy = (double(p.y()) - origin_.y()) * inv_cell_;
   const double fz = (double(p.z()) - origin_.z()) * inv_cell_;
   // The negated comparisons also reject NaN.
-  if (!(fx >= 0 && fy >= 0 && fz >= 0 && fx < dims_[0] && fy < dims_[1] && fz < dims_[2]))
-    return kOutside;
+  if (!(fx >= 0 && fy >= 0 && fz >= 0 && fx < dims_[0] && fy < dims_[1] && fz < dims_[2])) return kOutside;
   return Index(int(fx) + std::size_t(dims_[0]) * (int(fy) + std::size_t(dims_[1]) * int(fz)));
 }
 
@@ -31,8 +29,7 @@ void UniformGrid::build(const std::vector<Vec3>& points)
   const std::size_t n = points.size();
   cell_of_point_.resize(n);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096), [&](const tbb::blocked_range<std::size_t>& r) {
-    for (std::size_t i = r.begin(); i != r.end(); ++i)
-      cell_of_point_[i] = cellOf(points[i]);
+    for (std::size_t i = r.begin(); i != r.end(); ++i) cell_of_point_[i] = cellOf(points[i]);
   });
   // Counting sort (stable, so equal cells keep their relative order and the result is
   // deterministic). cell_start_ doubles as the histogram.
@@ -47,8 +44,7 @@ void UniformGrid::build(const std::vector<Vec3>& points)
     else
       ++cell_start_[c + 1];
   }
-  for (std::size_t c = 0; c < num_cells; ++c)
-    cell_start_[c + 1] += cell_start_[c];
+  for (std::size_t c = 0; c < num_cells; ++c) cell_start_[c + 1] += cell_start_[c];
   num_inside_ = n - outside;
   order_.resize(n);
   cursor_.assign(cell_start_.begin(), cell_start_.end() - 1);

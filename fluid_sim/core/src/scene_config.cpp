@@ -21,12 +21,9 @@ const char* toString(BoundaryPressureMethod method)
 
 BoundaryPressureMethod parseBoundaryPressureMethod(const std::string& name, const std::string& key)
 {
-  if (name == "mirroring")
-    return BoundaryPressureMethod::Mirroring;
-  if (name == "sph")
-    return BoundaryPressureMethod::SphExtrapolation;
-  if (name == "mls")
-    return BoundaryPressureMethod::Mls;
+  if (name == "mirroring") return BoundaryPressureMethod::Mirroring;
+  if (name == "sph") return BoundaryPressureMethod::SphExtrapolation;
+  if (name == "mls") return BoundaryPressureMethod::Mls;
   throw ConfigError(key, "unknown boundary pressure method '" + name + "' (expected mirroring, sph or mls)");
 }
 
@@ -60,20 +57,17 @@ std::string str(double v)
 
 void requireFinite(const Vec3d& v, const std::string& key)
 {
-  if (!v.allFinite())
-    throw ConfigError(key, "must be finite");
+  if (!v.allFinite()) throw ConfigError(key, "must be finite");
 }
 
 void requirePositive(double v, const std::string& key)
 {
-  if (!(v > 0.0) || !std::isfinite(v))
-    throw ConfigError(key, "must be > 0, got " + str(v));
+  if (!(v > 0.0) || !std::isfinite(v)) throw ConfigError(key, "must be > 0, got " + str(v));
 }
 
 void requireNonNegative(double v, const std::string& key)
 {
-  if (!(v >= 0.0) || !std::isfinite(v))
-    throw ConfigError(key, "must be >= 0, got " + str(v));
+  if (!(v >= 0.0) || !std::isfinite(v)) throw ConfigError(key, "must be >= 0, got " + str(v));
 }
 
 void requireBox(const AxisBox& box, const std::string& key)
@@ -109,18 +103,15 @@ void validate(const SceneConfig& s)
   if (ts.adaptive)
   {
     requirePositive(ts.cfl, "time_step.cfl");
-    if (ts.cfl > 2.0)
-      throw ConfigError("time_step.cfl", "must be <= 2, got " + str(ts.cfl));
+    if (ts.cfl > 2.0) throw ConfigError("time_step.cfl", "must be <= 2, got " + str(ts.cfl));
     requirePositive(ts.min, "time_step.min");
     requirePositive(ts.max, "time_step.max");
-    if (ts.min > ts.max)
-      throw ConfigError("time_step.min", "must not exceed time_step.max");
+    if (ts.min > ts.max) throw ConfigError("time_step.min", "must not exceed time_step.max");
   }
   else
   {
     requirePositive(ts.fixed, "time_step.fixed");
-    if (ts.fixed > 0.1)
-      throw ConfigError("time_step.fixed", "must be <= 0.1 s, got " + str(ts.fixed));
+    if (ts.fixed > 0.1) throw ConfigError("time_step.fixed", "must be <= 0.1 s, got " + str(ts.fixed));
   }
 
   const SolverConfig& sv = s.solver;
@@ -151,8 +142,7 @@ void validate(const SceneConfig& s)
   requireNonNegative(s.output.frame_interval, "output.frame_interval");
   requireNonNegative(s.duration, "duration");
 
-  if (s.fluid.empty())
-    throw ConfigError("fluid", "the scene has no fluid block");
+  if (s.fluid.empty()) throw ConfigError("fluid", "the scene has no fluid block");
   for (std::size_t i = 0; i < s.fluid.size(); ++i)
   {
     const std::string key = "fluid[" + std::to_string(i) + "]";
@@ -166,11 +156,9 @@ void validate(const SceneConfig& s)
   {
     const BoundaryConfig& b = s.boundaries[i];
     const std::string key = "boundaries[" + std::to_string(i) + "]";
-    if (b.name.empty())
-      throw ConfigError(key + ".name", "must not be empty");
+    if (b.name.empty()) throw ConfigError(key + ".name", "must not be empty");
     for (std::size_t j = 0; j < i; ++j)
-      if (s.boundaries[j].name == b.name)
-        throw ConfigError(key + ".name", "duplicate boundary name '" + b.name + "'");
+      if (s.boundaries[j].name == b.name) throw ConfigError(key + ".name", "duplicate boundary name '" + b.name + "'");
     switch (b.type)
     {
       case ShapeType::Box:
@@ -183,17 +171,14 @@ void validate(const SceneConfig& s)
       case ShapeType::Cylinder:
         requireFinite(b.cylinder.center, key + ".cylinder.center");
         requireFinite(b.cylinder.axis, key + ".cylinder.axis");
-        if (b.cylinder.axis.norm() < 1e-12)
-          throw ConfigError(key + ".cylinder.axis", "must not be zero");
+        if (b.cylinder.axis.norm() < 1e-12) throw ConfigError(key + ".cylinder.axis", "must not be zero");
         requirePositive(b.cylinder.radius, key + ".cylinder.radius");
         requirePositive(b.cylinder.length, key + ".cylinder.length");
         break;
       case ShapeType::Mesh:
-        if (b.mesh.triangles.empty())
-          throw ConfigError(key + ".mesh", "mesh of '" + b.name + "' has no triangles");
+        if (b.mesh.triangles.empty()) throw ConfigError(key + ".mesh", "mesh of '" + b.name + "' has no triangles");
         for (const auto& v : b.mesh.vertices)
-          if (!v.allFinite())
-            throw ConfigError(key + ".mesh", "mesh of '" + b.name + "' has a NaN or infinite vertex");
+          if (!v.allFinite()) throw ConfigError(key + ".mesh", "mesh of '" + b.name + "' has a NaN or infinite vertex");
         for (const auto& t : b.mesh.triangles)
           for (int k : t)
             if (k < 0 || k >= static_cast<int>(b.mesh.vertices.size()))

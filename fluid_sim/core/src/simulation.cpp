@@ -43,8 +43,7 @@ template <class F>
 void parallelFor(std::size_t n, F&& f)
 {
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, kGrain), [&](const tbb::blocked_range<std::size_t>& r) {
-    for (std::size_t i = r.begin(); i != r.end(); ++i)
-      f(i);
+    for (std::size_t i = r.begin(); i != r.end(); ++i) f(i);
   });
 }
 
@@ -55,8 +54,7 @@ double parallelSum(std::size_t n, F&& f)
   return tbb::parallel_deterministic_reduce(
       tbb::blocked_range<std::size_t>(0, n, kGrain), 0.0,
       [&](const tbb::blocked_range<std::size_t>& r, double acc) {
-        for (std::size_t i = r.begin(); i != r.end(); ++i)
-          acc += f(i);
+        for (std::size_t i = r.begin(); i != r.end(); ++i) acc += f(i);
         return acc;
       },
       [](double a, double b) { return a + b; });
@@ -68,8 +66,7 @@ double parallelMax(std::size_t n, F&& f)
   return tbb::parallel_reduce(
       tbb::blocked_range<std::size_t>(0, n, kGrain), 0.0,
       [&](const tbb::blocked_range<std::size_t>& r, double acc) {
-        for (std::size_t i = r.begin(); i != r.end(); ++i)
-          acc = std::max(acc, double(f(i)));
+        for (std::size_t i = r.begin(); i != r.end(); ++i) acc = std::max(acc, double(f(i)));
         return acc;
       },
       [](double a, double b) { return std::max(a, b); });
@@ -80,8 +77,7 @@ Vec3d rotationVector(const Eigen::Quaterniond& q)
 {
   Eigen::AngleAxisd aa(q.normalized());
   double angle = aa.angle();
-  if (angle > M_PI)
-    angle -= 2.0 * M_PI;
+  if (angle > M_PI) angle -= 2.0 * M_PI;
   return aa.axis() * angle;
 }
 
@@ -90,7 +86,7 @@ struct Body
   BoundaryConfig config;
   std::vector<Vec3d> local;  // body-frame samples, m
   std::size_t offset = 0;
-  Pose pose;                 // at the current time
+  Pose pose;  // at the current time
   Pose initial_pose;
   Vec3d v_origin = Vec3d::Zero(), omega = Vec3d::Zero();  // m/s, rad/s (world)
   Vec3d a_origin = Vec3d::Zero(), alpha = Vec3d::Zero();  // m/s^2, rad/s^2 (world)
@@ -150,15 +146,15 @@ struct Simulation::Impl
   }
 
   explicit Impl(const SceneConfig& cfg)
-    : scene(validated(cfg))
-    , s(Real(cfg.spacing))
-    , h(Real(2.0 * cfg.spacing))
-    , rho0(Real(cfg.rest_density))
-    , mass(Real(cfg.rest_density * cfg.spacing * cfg.spacing * cfg.spacing))
-    , kernel(Real(2.0 * cfg.spacing))
-    , gravity(cfg.gravity.cast<Real>())
-    , fluid_grid(cfg.domain.min, cfg.domain.max, 2.0 * cfg.spacing, 1)
-    , boundary_grid(cfg.domain.min, cfg.domain.max, 2.0 * cfg.spacing, 1)
+      : scene(validated(cfg))
+      , s(Real(cfg.spacing))
+      , h(Real(2.0 * cfg.spacing))
+      , rho0(Real(cfg.rest_density))
+      , mass(Real(cfg.rest_density * cfg.spacing * cfg.spacing * cfg.spacing))
+      , kernel(Real(2.0 * cfg.spacing))
+      , gravity(cfg.gravity.cast<Real>())
+      , fluid_grid(cfg.domain.min, cfg.domain.max, 2.0 * cfg.spacing, 1)
+      , boundary_grid(cfg.domain.min, cfg.domain.max, 2.0 * cfg.spacing, 1)
   {
     setupBodies();
     setupFluid();
@@ -179,8 +175,7 @@ struct Simulation::Impl
     {
       Body body;
       body.config = cfg;
-      if (body.config.type == ShapeType::Cylinder)
-        body.config.cylinder.axis.normalize();
+      if (body.config.type == ShapeType::Cylinder) body.config.cylinder.axis.normalize();
       const double ss = cfg.sample_spacing > 0.0 ? cfg.sample_spacing : scene.spacing;
       body.local = sampleBoundary(body.config, ss, scene.spacing);
       body.offset = offset;
@@ -221,7 +216,8 @@ struct Simulation::Impl
       const Vec3d ext = block.box.max - block.box.min;
       // Cell-centred lattice: a particle stands for the cube of side s around it, so a block that
       // touches a wall leaves the first particle half a spacing from it.
-      const int n[3] = {std::max(1, int(std::floor(ext.x() / sp + 1e-6))), std::max(1, int(std::floor(ext.y() / sp + 1e-6))),
+      const int n[3] = {std::max(1, int(std::floor(ext.x() / sp + 1e-6))),
+                        std::max(1, int(std::floor(ext.y() / sp + 1e-6))),
                         std::max(1, int(std::floor(ext.z() / sp + 1e-6)))};
       const Vec3d step(ext.x() / n[0], ext.y() / n[1], ext.z() / n[2]);
       for (int k = 0; k < n[2]; ++k)
@@ -252,12 +248,10 @@ struct Simulation::Impl
   {
     for (const Body& body : bodies)
     {
-      if (body.config.type == ShapeType::Mesh && !body.config.mesh_closed)
-        continue;
+      if (body.config.type == ShapeType::Mesh && !body.config.mesh_closed) continue;
       const Vec3d local = body.pose.rotation.conjugate() * (pos - body.pose.translation);
       const bool in = insideShape(body.config, local);
-      if (body.config.inside ? !in : in)
-        return true;
+      if (body.config.inside ? !in : in) return true;
     }
     return false;
   }
@@ -271,8 +265,7 @@ struct Simulation::Impl
       for (int j = -2; j <= 2; ++j)
         for (int i = -2; i <= 2; ++i)
         {
-          if (i == 0 && j == 0 && k == 0)
-            continue;
+          if (i == 0 && j == 0 && k == 0) continue;
           const Vec3 r = Vec3(Real(i), Real(j), Real(k)) * s;
           const Vec3 gw = kernel.gradW(r);
           g += mass * gw;
@@ -289,8 +282,7 @@ struct Simulation::Impl
     const MotionConfig& m = body.config.motion;
     const double w = m.angular_velocity.norm();
     Eigen::Quaterniond rot = Eigen::Quaterniond::Identity();
-    if (w > 0.0)
-      rot = Eigen::Quaterniond(Eigen::AngleAxisd(w * time, m.angular_velocity / w));
+    if (w > 0.0) rot = Eigen::Quaterniond(Eigen::AngleAxisd(w * time, m.angular_velocity / w));
     Pose pose;
     pose.rotation = (rot * body.initial_pose.rotation).normalized();
     pose.translation = m.about + rot * (body.initial_pose.translation - m.about) + m.linear_velocity * time;
@@ -332,8 +324,7 @@ struct Simulation::Impl
       body.a_origin = m.angular_velocity.cross(m.angular_velocity.cross(body.pose.translation - m.about));
       force_write = true;
     }
-    if (!force_write)
-      return;
+    if (!force_write) return;
     const Mat3d R = body.pose.rotation.toRotationMatrix();
     const Vec3d o = body.pose.translation;
     const std::size_t n = body.local.size();
@@ -351,8 +342,7 @@ struct Simulation::Impl
   double computeTimeStep() const
   {
     const TimeStepConfig& ts = scene.time_step;
-    if (!ts.adaptive)
-      return ts.fixed;
+    if (!ts.adaptive) return ts.fixed;
     const double vmax = parallelMax(v.size(), [&](std::size_t i) { return v[i].norm(); });
     // CFL: dt = lambda s / max|v|; at rest the gravity-driven speed after one max step bounds it.
     const double speed = std::max(vmax, gravity.norm() * ts.max);
@@ -402,8 +392,7 @@ struct Simulation::Impl
         boundary_grid.build(xb);
         const std::size_t nin = boundary_grid.numInside();
         xb_sorted.resize(nin);
-        for (std::size_t k = 0; k < nin; ++k)
-          xb_sorted[k] = xb[boundary_grid.order()[k]];
+        for (std::size_t k = 0; k < nin; ++k) xb_sorted[k] = xb[boundary_grid.order()[k]];
         boundary_grid_valid = true;
       }
       buildNeighborLists(x, boundary_grid, xb_sorted, boundary_grid.order(), h, false, gradFactor, fb);
@@ -414,8 +403,7 @@ struct Simulation::Impl
       fb.index.clear();
       fb.factor.clear();
     }
-    if (method() != BoundaryPressureMethod::Mirroring)
-      buildBoundaryFluidLists();
+    if (method() != BoundaryPressureMethod::Mirroring) buildBoundaryFluidLists();
   }
 
   /// Boundary-fluid lists for active boundary particles (those with a fluid neighbour), with the
@@ -429,12 +417,10 @@ struct Simulation::Impl
     });
     active_list.clear();
     for (std::size_t b = 0; b < active.size(); ++b)
-      if (active[b])
-        active_list.push_back(Index(b));
+      if (active[b]) active_list.push_back(Index(b));
     tmp_vec.resize(active_list.size());
     std::vector<Vec3>& queries = tmp_vec;
-    for (std::size_t k = 0; k < active_list.size(); ++k)
-      queries[k] = xb[active_list[k]];
+    for (std::size_t k = 0; k < active_list.size(); ++k) queries[k] = xb[active_list[k]];
     const Real radius = method() == BoundaryPressureMethod::Mls ? Real(scene.solver.mls_fit_radius * scene.spacing) : h;
     const CubicKernel fit_kernel(radius);
     auto weight = [&fit_kernel](const Vec3&, Real d2) -> Real { return fit_kernel.W(std::sqrt(d2)); };
@@ -478,8 +464,7 @@ struct Simulation::Impl
       A[i] = -(gsum.squaredNorm() + mass * mass * sq) / (density * density);
       if (method() == BoundaryPressureMethod::Mirroring)
         A[i] -= gb.dot(gsum) / (rho0 * rho0);  // Eq. 2: p_b = p_i adds (p_i/rho0^2) grad_b to a_i
-      if (-A[i] < 1e-6 * a_ref)
-        A[i] = 0;  // lone particle: no pressure
+      if (-A[i] < 1e-6 * a_ref) A[i] = 0;      // lone particle: no pressure
     });
   }
 
@@ -523,8 +508,7 @@ struct Simulation::Impl
         if (m == BoundaryPressureMethod::Mls)
         {
           w.resize(cnt);
-          for (int k = 0; k < cnt; ++k)
-            w[k] = c[k] * (mass / rho[idx[k]]);  // V_f W_bf (Eq. 7-14 weights)
+          for (int k = 0; k < cnt; ++k) w[k] = c[k] * (mass / rho[idx[k]]);  // V_f W_bf (Eq. 7-14 weights)
           const MlsFit fit = mlsCoefficients(xb[b], cnt, pos, w.data(), scene.solver.mls_fit_radius * scene.spacing,
                                              scene.solver.mls_eigen_tolerance, scene.solver.mls_singular, c);
           fit_kind[q] = std::size_t(fit);
@@ -646,7 +630,8 @@ struct Simulation::Impl
   /// Iterates a solve; on return `a` holds the final pressure acceleration (with p_b recomputed
   /// from the final p, METHOD.md choice 2). Returns iterations; writes error and convergence.
   template <BoundaryPressureMethod M>
-  int solve(std::vector<Real>& pf, double dt, bool density_solve, double tol, int min_it, double& error, bool& converged)
+  int solve(std::vector<Real>& pf, double dt, bool density_solve, double tol, int min_it, double& error,
+            bool& converged)
   {
     const int max_it = scene.solver.max_iterations;
     int it = 0;
@@ -674,8 +659,7 @@ struct Simulation::Impl
   void accumulateBodyForces(const std::vector<Real>& pf, std::vector<Vec3d>& fsum)
   {
     const std::size_t nb = bodies.size();
-    if (nb == 0)
-      return;
+    if (nb == 0) return;
     const Real inv_rho0_sq = Real(1) / (rho0 * rho0);
     std::vector<Vec3d> init(2 * nb, Vec3d::Zero());
     std::vector<Vec3d> total = tbb::parallel_deterministic_reduce(
@@ -683,8 +667,7 @@ struct Simulation::Impl
         [&](const tbb::blocked_range<std::size_t>& r, std::vector<Vec3d> acc) {
           for (std::size_t i = r.begin(); i != r.end(); ++i)
           {
-            if (fb.offset[i] == fb.offset[i + 1])
-              continue;
+            if (fb.offset[i] == fb.offset[i + 1]) continue;
             const Real ki = kappa[i];
             for (Index k = fb.offset[i]; k < fb.offset[i + 1]; ++k)
             {
@@ -701,12 +684,10 @@ struct Simulation::Impl
           return acc;
         },
         [](std::vector<Vec3d> l, const std::vector<Vec3d>& r) {
-          for (std::size_t k = 0; k < l.size(); ++k)
-            l[k] += r[k];
+          for (std::size_t k = 0; k < l.size(); ++k) l[k] += r[k];
           return l;
         });
-    for (std::size_t k = 0; k < total.size(); ++k)
-      fsum[k] += total[k];
+    for (std::size_t k = 0; k < total.size(); ++k) fsum[k] += total[k];
   }
 
   // --------------------------------------------------------------------------------- non-pressure
@@ -742,8 +723,7 @@ struct Simulation::Impl
       }
       for (Index k = fb.offset[i]; k < fb.offset[i + 1]; ++k)
       {
-        if (nub == 0)
-          break;
+        if (nub == 0) break;
         const Index b = fb.index[k];
         const Vec3 r = xi - xb[b];
         const Vec3 vib = vi - vb[b];
@@ -763,8 +743,9 @@ struct Simulation::Impl
           const Index b = fb.index[k];
           const Vec3 r = x[i] - xb[b];
           const Vec3 vib = v[i] - vb[b];
-          Vec3 dvb = xsph ? Vec3(-(nub * Vb[b] * kernel.W(r.norm())) * vib)
-                          : Vec3((Real(10) * nub * Vb[b] * vib.dot(r) / (r.squaredNorm() + eps) * fb.factor[k]) * r * dtr);
+          Vec3 dvb =
+              xsph ? Vec3(-(nub * Vb[b] * kernel.W(r.norm())) * vib)
+                   : Vec3((Real(10) * nub * Vb[b] * vib.dot(r) / (r.squaredNorm() + eps) * fb.factor[k]) * r * dtr);
           const Vec3d f = -(double(mass) / dt) * dvb.cast<double>();
           const Index body = body_of[b];
           fsum[2 * body] += f;
@@ -784,8 +765,7 @@ struct Simulation::Impl
     const std::size_t n0 = x.size();
 
     for (Body& body : bodies)
-      if (body.moving)
-        poseBody(body, t, false);
+      if (body.moving) poseBody(body, t, false);
 
     auto tn = Clock::now();
     sortFluid();
@@ -793,8 +773,7 @@ struct Simulation::Impl
     rep.ms_neighbors = msSince(tn);
 
     computeDensityAndDiagonal();
-    if (M != BoundaryPressureMethod::Mirroring)
-      computeExtrapolationCoefficients();
+    if (M != BoundaryPressureMethod::Mirroring) computeExtrapolationCoefficients();
     rep.max_density_error = parallelMax(x.size(), [&](std::size_t i) { return (rho[i] - rho0) / rho0; });
 
     const std::size_t n = x.size();
@@ -807,8 +786,7 @@ struct Simulation::Impl
     {
       computeDensityRate();
       parallelFor(n, [&](std::size_t i) { src[i] = -std::max(drho[i], Real(0)) / Real(dt); });
-      if (!scene.solver.warm_start)
-        std::fill(p_div.begin(), p_div.end(), Real(0));
+      if (!scene.solver.warm_start) std::fill(p_div.begin(), p_div.end(), Real(0));
       rep.divergence_iterations =
           solve<M>(p_div, dt, false, scene.solver.divergence_error, scene.solver.min_divergence_iterations,
                    rep.divergence_error, rep.divergence_converged);
@@ -824,8 +802,7 @@ struct Simulation::Impl
     computeDensityRate();
     const Real inv_dt = Real(1.0 / dt), inv_dt2 = Real(1.0 / (dt * dt));
     parallelFor(n, [&](std::size_t i) { src[i] = (rho0 - rho[i]) * inv_dt2 - drho[i] * inv_dt; });
-    if (!scene.solver.warm_start)
-      std::fill(p.begin(), p.end(), Real(0));
+    if (!scene.solver.warm_start) std::fill(p.begin(), p.end(), Real(0));
     rep.density_iterations = solve<M>(p, dt, true, scene.solver.density_error, scene.solver.min_iterations,
                                       rep.density_error, rep.density_converged);
     accumulateBodyForces<M>(p, fsum);
@@ -856,8 +833,7 @@ struct Simulation::Impl
   std::size_t countContacts() const
   {
     std::size_t total = 0;
-    for (const Body& b : bodies)
-      total += b.contact;
+    for (const Body& b : bodies) total += b.contact;
     return total;
   }
 
@@ -870,8 +846,7 @@ struct Simulation::Impl
       bodies[k].contact = 0;
       bodies[k].max_pressure = 0.0;
     }
-    if (bodies.empty())
-      return;
+    if (bodies.empty()) return;
     // Contact statistics from the fluid-boundary lists (serial: cheap, per boundary pair).
     std::fill(active.begin(), active.end(), 0);
     for (std::size_t i = 0; i < x.size(); ++i)
@@ -893,7 +868,8 @@ struct Simulation::Impl
   void checkAndRemove(StepReport& rep, double dt)
   {
     const std::size_t n = x.size();
-    const double nonfinite = parallelSum(n, [&](std::size_t i) { return (x[i].allFinite() && v[i].allFinite()) ? 0.0 : 1.0; });
+    const double nonfinite =
+        parallelSum(n, [&](std::size_t i) { return (x[i].allFinite() && v[i].allFinite()) ? 0.0 : 1.0; });
     rep.max_speed = parallelMax(n, [&](std::size_t i) { return v[i].norm(); });
     if (nonfinite > 0)
     {
@@ -916,15 +892,13 @@ struct Simulation::Impl
       rep.unstable = true;
       rep.reason = os.str();
     }
-    if (rep.unstable)
-      return;  // keep the state as it is for inspection: nothing removed, nothing hidden
+    if (rep.unstable) return;  // keep the state as it is for inspection: nothing removed, nothing hidden
     const Vec3 lo = scene.domain.min.cast<Real>(), hi = scene.domain.max.cast<Real>();
     std::size_t kept = 0;
     for (std::size_t i = 0; i < n; ++i)
     {
       const bool inside = (x[i].array() >= lo.array()).all() && (x[i].array() <= hi.array()).all();
-      if (!inside)
-        continue;
+      if (!inside) continue;
       if (kept != i)
       {
         x[kept] = x[i];
@@ -961,9 +935,7 @@ struct Simulation::Impl
   }
 };
 
-Simulation::Simulation(const SceneConfig& scene) : impl_(std::make_unique<Impl>(scene))
-{
-}
+Simulation::Simulation(const SceneConfig& scene) : impl_(std::make_unique<Impl>(scene)) {}
 Simulation::~Simulation() = default;
 
 StepReport Simulation::step()
@@ -973,8 +945,7 @@ StepReport Simulation::step()
 
 void Simulation::setBodyPose(std::size_t index, const Pose& pose)
 {
-  if (index >= impl_->bodies.size())
-    throw ConfigError("body", "no body with index " + std::to_string(index));
+  if (index >= impl_->bodies.size()) throw ConfigError("body", "no body with index " + std::to_string(index));
   Body& body = impl_->bodies[index];
   if (!body.config.externally_posed)
     throw ConfigError(body.config.name, "body is not externally posed (set `external: true`)");
@@ -985,8 +956,7 @@ void Simulation::setBodyPose(std::size_t index, const Pose& pose)
 std::size_t Simulation::bodyIndex(const std::string& name) const
 {
   for (std::size_t k = 0; k < impl_->bodies.size(); ++k)
-    if (impl_->bodies[k].config.name == name)
-      return k;
+    if (impl_->bodies[k].config.name == name) return k;
   throw ConfigError(name, "no boundary body with this name");
 }
 

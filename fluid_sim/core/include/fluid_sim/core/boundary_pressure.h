@@ -37,8 +37,7 @@ MlsFit mlsCoefficients(const Vec3& xb, int n, PosAt&& pos, const Real* w, double
   }
   if (n == 0 || !(wsum > 0.0))
   {
-    for (int k = 0; k < n; ++k)
-      c[k] = Real(0);
+    for (int k = 0; k < n; ++k) c[k] = Real(0);
     return MlsFit::Empty;
   }
   d /= wsum;  // Eq. 7: weighted centre d_b
@@ -65,8 +64,7 @@ MlsFit mlsCoefficients(const Vec3& xb, int n, PosAt&& pos, const Real* w, double
   {
     const Mat3d& v = eig.eigenvectors();
     for (int e = 0; e < 3; ++e)
-      if (lambda(e) >= eigen_tolerance * lmax)
-        q += v.col(e) * (v.col(e).dot(yb) / lambda(e));
+      if (lambda(e) >= eigen_tolerance * lmax) q += v.col(e) * (v.col(e).dot(yb) / lambda(e));
   }
   // alpha_b (Eq. 13) contributes w_f / sum w; the slope term (Eqs. 14-15) adds (q . y_f) w_f / sum w.
   for (int k = 0; k < n; ++k)
@@ -92,13 +90,11 @@ void sphCoefficients(const Vec3& xb, int n, PosAt&& pos, RhoAt&& rho, const Real
   }
   if (n == 0 || !(wsum > 0.0))
   {
-    for (int k = 0; k < n; ++k)
-      c[k] = Real(0);
+    for (int k = 0; k < n; ++k) c[k] = Real(0);
     constant = Real(0);
     return;
   }
-  for (int k = 0; k < n; ++k)
-    c[k] = Real(double(wk[k]) / wsum);
+  for (int k = 0; k < n; ++k) c[k] = Real(double(wk[k]) / wsum);
   constant = Real(g_minus_ab.template cast<double>().dot(moment) / wsum);
 }
 

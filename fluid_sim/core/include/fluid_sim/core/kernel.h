@@ -28,10 +28,8 @@ public:
   Real W(Real r) const
   {
     const Real q = r * inv_h_;
-    if (q >= Real(1))
-      return Real(0);
-    if (q <= Real(0.5))
-      return k_ * (Real(6) * q * q * (q - Real(1)) + Real(1));
+    if (q >= Real(1)) return Real(0);
+    if (q <= Real(0.5)) return k_ * (Real(6) * q * q * (q - Real(1)) + Real(1));
     const Real a = Real(1) - q;
     return k_ * Real(2) * a * a * a;
   }
@@ -48,8 +46,7 @@ public:
   Vec3 gradW(const Vec3& r) const
   {
     const Real rl2 = r.squaredNorm();
-    if (rl2 >= h_ * h_ || rl2 < Real(1e-18) * h_ * h_)
-      return Vec3::Zero();
+    if (rl2 >= h_ * h_ || rl2 < Real(1e-18) * h_ * h_) return Vec3::Zero();
     const Real rl = std::sqrt(rl2);
     const Real q = rl * inv_h_;
     const Real factor = q <= Real(0.5) ? l_ * q * (Real(3) * q - Real(2)) : -l_ * (Real(1) - q) * (Real(1) - q);

@@ -50,11 +50,9 @@ public:
     const double fx = (double(p.x()) - origin_.x()) * inv_cell_;
     const double fy = (double(p.y()) - origin_.y()) * inv_cell_;
     const double fz = (double(p.z()) - origin_.z()) * inv_cell_;
-    if (!(fx >= 0 && fy >= 0 && fz >= 0))
-      return;
+    if (!(fx >= 0 && fy >= 0 && fz >= 0)) return;
     const int ix = int(fx), iy = int(fy), iz = int(fz);
-    if (ix >= dims_[0] || iy >= dims_[1] || iz >= dims_[2])
-      return;
+    if (ix >= dims_[0] || iy >= dims_[1] || iz >= dims_[2]) return;
     const int x0 = std::max(ix - reach, 0), x1 = std::min(ix + reach, dims_[0] - 1);
     const int y0 = std::max(iy - reach, 0), y1 = std::min(iy + reach, dims_[1] - 1);
     const int z0 = std::max(iz - reach, 0), z1 = std::min(iz + reach, dims_[2] - 1);
@@ -64,8 +62,7 @@ public:
         const std::size_t row = std::size_t(dims_[0]) * (std::size_t(y) + std::size_t(dims_[1]) * z);
         const Index begin = cell_start_[row + x0];
         const Index end = cell_start_[row + x1 + 1];
-        if (begin < end)
-          f(begin, end);
+        if (begin < end) f(begin, end);
       }
   }
 

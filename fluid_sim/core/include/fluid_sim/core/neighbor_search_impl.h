@@ -46,11 +46,9 @@ void buildNeighborLists(const std::vector<Vec3>& queries, const UniformGrid& gri
           {
             const Vec3 d = xi - sorted_points[k];
             const Real d2 = d.squaredNorm();
-            if (d2 >= r2max)
-              continue;
+            if (d2 >= r2max) continue;
             const Index j = ids.empty() ? k : ids[k];
-            if (skip_self && j == i)
-              continue;
+            if (skip_self && j == i) continue;
             bi.push_back(j);
             bf.push_back(pairFactor(d, d2));
             ++count;
@@ -60,8 +58,7 @@ void buildNeighborLists(const std::vector<Vec3>& queries, const UniformGrid& gri
       }
     }
   });
-  for (std::size_t i = 0; i < n; ++i)
-    out.offset[i + 1] += out.offset[i];
+  for (std::size_t i = 0; i < n; ++i) out.offset[i + 1] += out.offset[i];
   out.index.resize(out.offset[n]);
   out.factor.resize(out.offset[n]);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, blocks, 1), [&](const tbb::blocked_range<std::size_t>& rb) {

@@ -47,16 +47,16 @@ struct SphereShape
 /// A closed cylinder (side and both caps). `center` is the midpoint of its axis segment.
 struct CylinderShape
 {
-  Vec3d center = Vec3d::Zero();        // m
-  Vec3d axis = Vec3d::UnitZ();         // unit-less direction, normalised by validate()
-  double radius = 0.0;                 // m
-  double length = 0.0;                 // m, along axis
+  Vec3d center = Vec3d::Zero();  // m
+  Vec3d axis = Vec3d::UnitZ();   // unit-less direction, normalised by validate()
+  double radius = 0.0;           // m
+  double length = 0.0;           // m, along axis
 };
 
 /// A triangle mesh in the body frame. Triangles index `vertices`.
 struct TriangleMesh
 {
-  std::vector<Vec3d> vertices;                 // m
+  std::vector<Vec3d> vertices;                // m
   std::vector<std::array<int, 3>> triangles;  // vertex indices
 };
 
@@ -89,25 +89,25 @@ enum class SurfaceOffset
 
 struct BoundaryConfig
 {
-  std::string name;             // key: name (default: shape type and index)
+  std::string name;  // key: name (default: shape type and index)
   ShapeType type = ShapeType::Box;
-  AxisBox box;                  // key: box {min, max}
-  SphereShape sphere;           // key: sphere {center, radius}
-  CylinderShape cylinder;       // key: cylinder {center, axis, radius, length}
-  TriangleMesh mesh;            // filled by io from mesh files / URDF links
-  bool mesh_closed = true;      // set by io: false for an open mesh (cup, paddle)
+  AxisBox box;              // key: box {min, max}
+  SphereShape sphere;       // key: sphere {center, radius}
+  CylinderShape cylinder;   // key: cylinder {center, axis, radius, length}
+  TriangleMesh mesh;        // filled by io from mesh files / URDF links
+  bool mesh_closed = true;  // set by io: false for an open mesh (cup, paddle)
   SurfaceOffset mesh_offset = SurfaceOffset::Auto;
-  bool inside = false;          // key: inside; true = a container (fluid stays inside)
-  Pose pose;                    // body frame -> world at t = 0 (key: pose {xyz, rpy})
-  MotionConfig motion;          // key: motion
+  bool inside = false;            // key: inside; true = a container (fluid stays inside)
+  Pose pose;                      // body frame -> world at t = 0 (key: pose {xyz, rpy})
+  MotionConfig motion;            // key: motion
   bool externally_posed = false;  // the caller poses it every step (ROS node through tf)
-  double sample_spacing = 0.0;  // m, 0 = scene spacing; may be finer          key: sample_spacing
+  double sample_spacing = 0.0;    // m, 0 = scene spacing; may be finer          key: sample_spacing
 };
 
 struct FluidBlockConfig
 {
-  AxisBox box;                           // key: box {min, max}, m
-  Vec3d velocity = Vec3d::Zero();        // key: velocity, m/s
+  AxisBox box;                     // key: box {min, max}, m
+  Vec3d velocity = Vec3d::Zero();  // key: velocity, m/s
 };
 
 struct TimeStepConfig
@@ -130,24 +130,24 @@ const char* toString(ViscosityModel model);
 struct ViscosityConfig
 {
   ViscosityModel model = ViscosityModel::None;  // key: viscosity.model: none | artificial | xsph
-  double coefficient = 0.0;  // key: viscosity.coefficient (m^2/s for artificial, unit-less for xsph)
-  double boundary = 0.0;     // key: viscosity.boundary: same units against walls; > 0 = no-slip-like walls
+  double coefficient = 0.0;                     // key: viscosity.coefficient (m^2/s for artificial, unit-less for xsph)
+  double boundary = 0.0;  // key: viscosity.boundary: same units against walls; > 0 = no-slip-like walls
 };
 
 struct SolverConfig
 {
   BoundaryPressureMethod boundary_pressure = BoundaryPressureMethod::Mls;  // key: solver.boundary_pressure
-  double density_error = 0.001;     // relative, mean over particles   key: solver.density_error
-  double divergence_error = 0.001;  // relative per step                key: solver.divergence_error
-  int min_iterations = 2;           // density solve                    key: solver.min_iterations
-  int max_iterations = 100;         // both solves                      key: solver.max_iterations
-  int min_divergence_iterations = 1;  //                                key: solver.min_divergence_iterations
-  bool divergence_solve = true;     // key: solver.divergence_solve (paper Sec. 5.1 runs without it)
-  bool warm_start = false;          // key: solver.warm_start
-  double omega = 0.5;               // relaxed Jacobi factor            key: solver.omega
+  double density_error = 0.001;         // relative, mean over particles   key: solver.density_error
+  double divergence_error = 0.001;      // relative per step                key: solver.divergence_error
+  int min_iterations = 2;               // density solve                    key: solver.min_iterations
+  int max_iterations = 100;             // both solves                      key: solver.max_iterations
+  int min_divergence_iterations = 1;    //                                key: solver.min_divergence_iterations
+  bool divergence_solve = true;         // key: solver.divergence_solve (paper Sec. 5.1 runs without it)
+  bool warm_start = false;              // key: solver.warm_start
+  double omega = 0.5;                   // relaxed Jacobi factor            key: solver.omega
   bool clamp_boundary_pressure = true;  // p_b >= 0 in the density solve key: solver.clamp_boundary_pressure
-  double mls_fit_radius = 3.0;      // spacings; radius of the MLS fit  key: solver.mls_fit_radius
-  double mls_eigen_tolerance = 0.02;  // smallest/largest eigenvalue    key: solver.mls_eigen_tolerance
+  double mls_fit_radius = 3.0;          // spacings; radius of the MLS fit  key: solver.mls_fit_radius
+  double mls_eigen_tolerance = 0.02;    // smallest/largest eigenvalue    key: solver.mls_eigen_tolerance
   MlsSingularMode mls_singular = MlsSingularMode::Fallback;  //         key: solver.mls_singular
 };
 
@@ -165,17 +165,17 @@ struct OutputConfig
 
 struct SceneConfig
 {
-  std::string source = "<scene>";  // file name, for messages
-  double spacing = 0.02;           // m; kernel support is 2 x spacing   key: spacing
-  double rest_density = 1000.0;    // kg/m^3                            key: rest_density
-  Vec3d gravity{0.0, 0.0, -9.81};  // m/s^2                             key: gravity
+  std::string source = "<scene>";                     // file name, for messages
+  double spacing = 0.02;                              // m; kernel support is 2 x spacing   key: spacing
+  double rest_density = 1000.0;                       // kg/m^3                            key: rest_density
+  Vec3d gravity{0.0, 0.0, -9.81};                     // m/s^2                             key: gravity
   AxisBox domain{Vec3d(-1, -1, -1), Vec3d(2, 2, 2)};  // m              key: domain
   TimeStepConfig time_step;
   SolverConfig solver;
   ViscosityConfig viscosity;
   StabilityConfig stability;
-  std::vector<FluidBlockConfig> fluid;       // key: fluid
-  std::vector<BoundaryConfig> boundaries;    // key: boundaries
+  std::vector<FluidBlockConfig> fluid;     // key: fluid
+  std::vector<BoundaryConfig> boundaries;  // key: boundaries
   OutputConfig output;
   double duration = 1.0;  // s, default run length for the runner     key: duration
 };

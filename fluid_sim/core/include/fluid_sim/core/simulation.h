@@ -46,13 +46,13 @@ struct BodyInfo
   bool moving = false;
   std::size_t first_particle = 0;  // range in boundaryPositions()
   std::size_t num_particles = 0;
-  Pose pose;                 // current body -> world
-  Vec3d linear_velocity;     // m/s of the body origin
-  Vec3d angular_velocity;    // rad/s, world frame
-  Vec3d force;               // N, world frame, exerted by the fluid in the last step
-  Vec3d torque;              // N m, world frame, about the body origin
-  Vec3d force_body;          // N, the same force in the body frame
-  Vec3d torque_body;         // N m, the same torque in the body frame
+  Pose pose;                          // current body -> world
+  Vec3d linear_velocity;              // m/s of the body origin
+  Vec3d angular_velocity;             // rad/s, world frame
+  Vec3d force;                        // N, world frame, exerted by the fluid in the last step
+  Vec3d torque;                       // N m, world frame, about the body origin
+  Vec3d force_body;                   // N, the same force in the body frame
+  Vec3d torque_body;                  // N m, the same torque in the body frame
   std::size_t contact_particles = 0;  // boundary particles with a fluid neighbour
   double max_pressure = 0.0;          // Pa, largest boundary pressure used (density solve)
 };
@@ -89,7 +89,7 @@ public:
   const std::vector<Real>& pressures() const;
   const std::vector<Real>& densitySolvePressures() const;     // Pa
   const std::vector<Real>& divergenceSolvePressures() const;  // Pa
-  const std::vector<Real>& densities() const;   // kg/m^3
+  const std::vector<Real>& densities() const;                 // kg/m^3
 
   std::size_t numBodies() const;
   BodyInfo body(std::size_t index) const;

@@ -55,7 +55,7 @@ class ConfigError : public std::runtime_error
 {
 public:
   ConfigError(const std::string& key, const std::string& message)
-    : std::runtime_error(key.empty() ? message : key + ": " + message), key_(key), message_(message)
+      : std::runtime_error(key.empty() ? message : key + ": " + message), key_(key), message_(message)
   {
   }
   const std::string& key() const
