@@ -1,0 +1,132 @@
+#include "fluid_sim/io/run_summary.h"
+
+#include <algorithm>
+#include <nlohmann/json.hpp>
+#include <stdexcept>
+
+#include "fluid_sim/io/file_util.h"
+
+namespace fluid_sim
+{
+namespace io
+{
+double RunSummary::realTimeFactor() const
+{
+  return wall_time > 0.0 ? simulated_time / wall_time : 0.0;
+}
+
+double RunSummary::msPerStep() const
+{
+  return steps > 0 ? 1000.0 * step_time / static_cast<double>(steps) : 0.0;
+}
+
+RunStatistics::RunStatistics(std::vector<std::string> body_names) : body_names_(std::move(body_names)) {}
+
+void RunStatistics::add(const StepReport& report, double wall_ms, const std::vector<Wrench>& wrenches)
+{
+  if (wrenches.size() != body_names_.size())
+    throw std::invalid_argument("RunStatistics::add: " + std::to_string(wrenches.size()) + " wrenches for " +
+                                std::to_string(body_names_.size()) + " bodies");
+  if (times_.empty()) start_time_ = report.time - report.dt;
+  times_.push_back(report.time);
+  dts_.push_back(report.dt);
+  wrenches_.insert(wrenches_.end(), wrenches.begin(), wrenches.end());
+  step_ms_ += wall_ms;
+  divergence_iterations_ += report.divergence_iterations;
+  density_iterations_ += report.density_iterations;
+  density_error_sum_ += report.density_error;
+  density_error_max_ = std::max(density_error_max_, report.density_error);
+}
+
+void RunStatistics::fill(RunSummary& summary) const
+{
+  const std::size_t n = steps();
+  const double per_step = n > 0 ? 1.0 / static_cast<double>(n) : 0.0;
+  summary.steps = n;
+  summary.simulated_time = n > 0 ? times_.back() : 0.0;
+  summary.step_time = step_ms_ / 1000.0;
+  summary.mean_divergence_iterations = divergence_iterations_ * per_step;
+  summary.mean_density_iterations = density_iterations_ * per_step;
+  summary.mean_density_error = density_error_sum_ * per_step;
+  summary.max_density_error = density_error_max_;
+
+  const std::size_t num_bodies = body_names_.size();
+  summary.bodies.assign(num_bodies, BodySummary{});
+  for (std::size_t b = 0; b < num_bodies; ++b) summary.bodies[b].name = body_names_[b];
+  if (n == 0) return;
+
+  const double window_start = times_.back() - 0.1 * (times_.back() - start_time_);  // s
+  std::vector<Wrench> sum(num_bodies);
+  double weight = 0.0;  // s
+  for (std::size_t s = 0; s < n; ++s)
+  {
+    if (times_[s] - 0.5 * dts_[s] <= window_start && s + 1 < n) continue;
+    weight += dts_[s];
+    for (std::size_t b = 0; b < num_bodies; ++b)
+    {
+      sum[b].force += dts_[s] * wrenches_[s * num_bodies + b].force;
+      sum[b].torque += dts_[s] * wrenches_[s * num_bodies + b].torque;
+    }
+  }
+  for (std::size_t b = 0; b < num_bodies; ++b)
+  {
+    summary.bodies[b].last = wrenches_[(n - 1) * num_bodies + b];
+    if (weight > 0.0)
+      summary.bodies[b].mean = Wrench{sum[b].force / weight, sum[b].torque / weight};
+    else
+      summary.bodies[b].mean = summary.bodies[b].last;  // a zero-length step
+  }
+}
+
+namespace
+{
+nlohmann::ordered_json toJson(const Vec3d& v)
+{
+  return nlohmann::ordered_json::array({v.x(), v.y(), v.z()});
+}
+}  // namespace
+
+std::string toJson(const RunSummary& s)
+{
+  nlohmann::ordered_json bodies = nlohmann::ordered_json::array();
+  for (const BodySummary& b : s.bodies)
+    bodies.push_back(nlohmann::ordered_json{{"name", b.name},
+                                            {"force", toJson(b.last.force)},
+                                            {"torque", toJson(b.last.torque)},
+                                            {"mean_force", toJson(b.mean.force)},
+                                            {"mean_torque", toJson(b.mean.torque)}});
+  nlohmann::ordered_json j;
+  j["summary_version"] = s.summary_version;
+  j["scene"] = s.scene;
+  j["overrides"] = s.overrides;
+  j["method"] = s.method;
+  j["spacing"] = s.spacing;
+  j["threads"] = s.threads;
+  j["status"] = s.status;
+  j["reason"] = s.reason;
+  j["fluid_particles"] = {{"initial", s.initial_fluid_particles},
+                          {"final", s.final_fluid_particles},
+                          {"removed_at_start", s.removed_at_start},
+                          {"removed_total", s.removed_total}};
+  j["boundary_particles"] = s.boundary_particles;
+  j["steps"] = s.steps;
+  j["simulated_time_s"] = s.simulated_time;
+  j["wall_time_s"] = s.wall_time;
+  j["step_time_s"] = s.step_time;
+  j["ms_per_step"] = s.msPerStep();
+  j["real_time_factor"] = s.realTimeFactor();
+  j["mean_divergence_iterations"] = s.mean_divergence_iterations;
+  j["mean_density_iterations"] = s.mean_density_iterations;
+  j["mean_density_error"] = s.mean_density_error;
+  j["max_density_error"] = s.max_density_error;
+  j["bodies"] = bodies;
+  return j.dump(2) + "\n";
+}
+
+void writeSummaryJson(const std::string& path, const RunSummary& summary)
+{
+  writeFileAtomically(path, toJson(summary));
+}
+
+}  // namespace io
+}  // namespace fluid_sim

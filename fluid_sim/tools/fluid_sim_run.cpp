@@ -1,0 +1,329 @@
+// fluid_sim_run: runs a scene headless and writes PLY frames, stats.csv and summary.json.
+//
+//   fluid_sim_run SCENE.yaml [--duration S] [--out DIR] [--set key.path=value ...] [--threads N]
+//
+// Exit codes: 0 ok, 1 I/O or internal error, 2 bad input (scene, option), 3 the run became
+// unstable, 130 interrupted (SIGINT). The summary and stats are written in cases 0, 3 and 130.
+
+#include <signal.h>
+#include <tbb/global_control.h>
+#include <tbb/info.h>
+#include <unistd.h>
+
+#include <CLI/CLI.hpp>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <memory>
+#include <regex>
+#include <string>
+#include <vector>
+
+#include "fluid_sim/core/simulation.h"
+#include "fluid_sim/io/ply_writer.h"
+#include "fluid_sim/io/run_summary.h"
+#include "fluid_sim/io/scene_loader.h"
+#include "fluid_sim/io/simulation_output.h"
+#include "fluid_sim/io/stats_writer.h"
+
+namespace
+{
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+
+constexpr int kExitOk = 0;
+constexpr int kExitError = 1;
+constexpr int kExitBadInput = 2;
+constexpr int kExitUnstable = 3;
+constexpr int kExitInterrupted = 130;
+
+volatile sig_atomic_t g_interrupted = 0;
+
+extern "C" void onSigint(int)
+{
+  g_interrupted = 1;
+}
+
+/// The first SIGINT asks the loop to stop after the current step; SA_RESETHAND makes a second
+/// one terminate at once.
+void installSigintHandler()
+{
+  struct sigaction action = {};
+  action.sa_handler = onSigint;
+  sigemptyset(&action.sa_mask);
+  action.sa_flags = SA_RESETHAND;
+  sigaction(SIGINT, &action, nullptr);
+}
+
+double secondsSince(Clock::time_point start)
+{
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+std::string formatDuration(double seconds)
+{
+  if (!std::isfinite(seconds) || seconds < 0.0) return "--:--";
+  const auto total = static_cast<long>(std::lround(seconds));
+  char text[32];
+  if (total >= 3600)
+    std::snprintf(text, sizeof text, "%ld:%02ld:%02ld", total / 3600, total / 60 % 60, total % 60);
+  else
+    std::snprintf(text, sizeof text, "%ld:%02ld", total / 60, total % 60);
+  return text;
+}
+
+/// Progress on stderr: on a terminal a bar redrawn at most 5 times per second, otherwise a plain
+/// line every 5 % of the duration or every 10 s.
+class Progress
+{
+public:
+  explicit Progress(double duration)
+      : duration_(duration), terminal_(isatty(STDERR_FILENO) != 0), start_(Clock::now()), last_(start_)
+  {
+  }
+
+  void update(double t)
+  {
+    const double since_last = secondsSince(last_);
+    if (terminal_)
+    {
+      if (since_last < 0.2) return;
+    }
+    else
+    {
+      const double fraction = duration_ > 0.0 ? t / duration_ + 1.0e-9 : 1.0;
+      if (fraction < next_fraction_ && since_last < 10.0) return;
+      next_fraction_ = (std::floor(fraction / 0.05) + 1.0) * 0.05;
+    }
+    last_ = Clock::now();
+    print(t);
+  }
+
+  void finish(double t)
+  {
+    if (terminal_)
+    {
+      print(t);
+      std::cerr << '\n';
+    }
+  }
+
+private:
+  void print(double t) const
+  {
+    const double elapsed = secondsSince(start_);
+    const double fraction = duration_ > 0.0 ? std::min(1.0, t / duration_) : 1.0;
+    const double rtf = elapsed > 0.0 ? t / elapsed : 0.0;
+    const double eta = rtf > 0.0 ? std::max(0.0, duration_ - t) / rtf : -1.0;  // s
+    char text[160];
+    std::snprintf(text, sizeof text, "%.4g / %.4g s (%3.0f %%)  real-time factor %.3g  ETA %s", t, duration_,
+                  100.0 * fraction, rtf, formatDuration(eta).c_str());
+    if (terminal_)
+    {
+      constexpr int kWidth = 30;
+      const int filled = static_cast<int>(fraction * kWidth + 1.0e-6);
+      std::cerr << "\r[" << std::string(filled, '#') << std::string(kWidth - filled, '-') << "] " << text << "\033[K"
+                << std::flush;
+    }
+    else
+    {
+      std::cerr << text << std::endl;
+    }
+  }
+
+  double duration_;  // s
+  bool terminal_;
+  Clock::time_point start_;
+  Clock::time_point last_;
+  double next_fraction_ = 0.05;
+};
+
+/// Removes frames of an earlier run (NNNNNN.ply) so the directory holds one consistent series.
+void removeOldFrames(const fs::path& frames_dir)
+{
+  static const std::regex frame_name("[0-9]{6}\\.ply(\\.tmp)?");
+  for (const auto& entry : fs::directory_iterator(frames_dir))
+    if (entry.is_regular_file() && std::regex_match(entry.path().filename().string(), frame_name))
+      fs::remove(entry.path());
+}
+
+std::string vectorText(const fluid_sim::Vec3d& v)
+{
+  char text[96];
+  std::snprintf(text, sizeof text, "[%.4g, %.4g, %.4g]", v.x(), v.y(), v.z());
+  return text;
+}
+
+void printSummary(const fluid_sim::io::RunSummary& s, const fs::path& out_dir, std::size_t frames)
+{
+  std::printf("scene    %s (%s, spacing %g m, %d threads)\n", s.scene.c_str(), s.method.c_str(), s.spacing, s.threads);
+  std::printf("fluid    %zu particles (%zu at start, %zu removed at start, %zu left the domain), %zu boundary\n",
+              s.final_fluid_particles, s.initial_fluid_particles, s.removed_at_start, s.removed_total,
+              s.boundary_particles);
+  std::printf("steps    %zu, %.3f ms/step; simulated %.4g s in %.3g s (real-time factor %.3g)\n", s.steps,
+              s.msPerStep(), s.simulated_time, s.wall_time, s.realTimeFactor());
+  std::printf("solver   %.2f divergence, %.2f density iterations/step; density error mean %.3g %%, max %.3g %%\n",
+              s.mean_divergence_iterations, s.mean_density_iterations, 100.0 * s.mean_density_error,
+              100.0 * s.max_density_error);
+  for (const auto& body : s.bodies)
+    std::printf("body     %s: mean force %s N, mean torque %s N m\n", body.name.c_str(),
+                vectorText(body.mean.force).c_str(), vectorText(body.mean.torque).c_str());
+  std::printf("status   %s%s%s\n", s.status.c_str(), s.reason.empty() ? "" : ": ", s.reason.c_str());
+  std::printf("output   %s (%zu frames)\n", out_dir.string().c_str(), frames);
+}
+
+struct Options
+{
+  std::string scene;
+  double duration = -1.0;  // s; < 0: the scene's duration
+  std::string out;
+  std::vector<std::string> overrides;
+  int threads = 0;  // 0: all cores
+};
+
+int run(const Options& options)
+{
+  using namespace fluid_sim;
+
+  std::unique_ptr<Simulation> sim;
+  try
+  {
+    const SceneConfig scene = io::loadScene(options.scene, options.overrides);
+    sim = std::make_unique<Simulation>(scene);
+  }
+  catch (const io::SceneError& e)
+  {
+    std::cerr << "error: " << e.what() << '\n';
+    return kExitBadInput;
+  }
+  catch (const ConfigError& e)  // from Simulation: the scene parsed but cannot be built
+  {
+    std::cerr << "error: " << options.scene << ": " << e.what() << '\n';
+    return kExitBadInput;
+  }
+
+  const SceneConfig& scene = sim->scene();
+  const double duration = options.duration >= 0.0 ? options.duration : scene.duration;  // s
+  const double frame_interval = scene.output.frame_interval;                            // s
+  const fs::path out_dir =
+      options.out.empty() ? fs::path("out") / fs::path(options.scene).stem() : fs::path(options.out);
+  const fs::path frames_dir = out_dir / "frames";
+  fs::create_directories(out_dir);
+  if (frame_interval > 0.0)
+  {
+    fs::create_directories(frames_dir);
+    removeOldFrames(frames_dir);
+  }
+
+  io::RunStatistics stats(io::bodyNames(*sim));
+  io::StatsCsvWriter csv((out_dir / "stats.csv").string());
+  std::size_t frames = 0;      // written so far; the next file's number
+  std::size_t frame_slot = 0;  // the next frame is due at frame_slot * frame_interval
+  // Frame k is due at k * frame_interval; it is written after the step that ends nearest to it.
+  const auto writeFrameIfDue = [&](double t, double dt, bool force) {
+    if (frame_interval <= 0.0 || (!force && t + 0.5 * dt < frame_slot * frame_interval)) return;
+    io::writePly((frames_dir / io::frameFileName(frames++)).string(), *sim);
+    frame_slot = std::max(frame_slot, static_cast<std::size_t>(std::floor((t + 0.5 * dt) / frame_interval)) + 1);
+  };
+  writeFrameIfDue(sim->time(), 0.0, false);
+
+  Progress progress(duration);
+  std::string status = "ok";
+  std::string reason;
+  const auto start = Clock::now();
+  auto last_flush = start;
+  // Step while a step would still end meaningfully before the duration (1e-3 dt absorbs the
+  // rounding of a time summed from many steps).
+  while (sim->time() < duration - 1.0e-3 * sim->nextTimeStep())
+  {
+    if (g_interrupted)
+    {
+      status = "interrupted";
+      reason = "interrupted (SIGINT) at t = " + std::to_string(sim->time()) + " s";
+      break;
+    }
+    const auto step_start = Clock::now();
+    const StepReport report = sim->step();
+    const double wall_ms = 1000.0 * secondsSince(step_start);
+    stats.add(report, wall_ms, io::bodyWrenches(*sim));
+    csv.write(stats.steps(), report, wall_ms);
+    if (report.unstable)
+    {
+      writeFrameIfDue(report.time, report.dt, true);  // the state that blew up, for inspection
+      status = "unstable";
+      reason = report.reason.empty() ? "unstable" : report.reason;
+      break;
+    }
+    writeFrameIfDue(report.time, report.dt, false);
+    progress.update(report.time);
+    if (secondsSince(last_flush) > 1.0)  // keep stats.csv current for a reader following it
+    {
+      csv.flush();
+      last_flush = Clock::now();
+    }
+  }
+  progress.finish(sim->time());
+  csv.flush();
+
+  io::RunSummary summary = io::summarize(*sim, stats);
+  summary.threads = options.threads;
+  summary.overrides = options.overrides;
+  summary.wall_time = secondsSince(start);
+  summary.status = status;
+  summary.reason = reason;
+  io::writeSummaryJson((out_dir / "summary.json").string(), summary);
+  printSummary(summary, out_dir, frames);
+
+  if (status == "unstable")
+  {
+    std::cerr << "unstable at t = " << sim->time() << " s: " << reason << '\n';
+    return kExitUnstable;
+  }
+  if (status == "interrupted")
+  {
+    std::cerr << reason << '\n';
+    return kExitInterrupted;
+  }
+  return kExitOk;
+}
+
+}  // namespace
+
+int main(int argc, char** argv)
+{
+  CLI::App app{"Runs a fluid_sim scene headless; writes PLY frames, stats.csv and summary.json."};
+  Options options;
+  app.add_option("scene", options.scene, "Scene YAML file")->required();
+  app.add_option("--duration", options.duration, "Simulated time to run, s (default: the scene's duration)")
+      ->check(CLI::NonNegativeNumber);
+  app.add_option("--out", options.out, "Output directory (default: out/<scene stem>)");
+  app.add_option("--set", options.overrides, "Override a scene key, e.g. --set solver.boundary_pressure=sph")
+      ->allow_extra_args(false);
+  app.add_option("--threads", options.threads, "Worker threads (default: all cores)")->check(CLI::PositiveNumber);
+  try
+  {
+    app.parse(argc, argv);
+  }
+  catch (const CLI::ParseError& e)
+  {
+    const int code = app.exit(e);  // prints help or the usage error
+    return code == 0 ? kExitOk : kExitBadInput;
+  }
+
+  installSigintHandler();
+  if (options.threads <= 0) options.threads = tbb::info::default_concurrency();
+  const tbb::global_control threads(tbb::global_control::max_allowed_parallelism,
+                                    static_cast<std::size_t>(options.threads));
+  try
+  {
+    return run(options);
+  }
+  catch (const std::exception& e)
+  {
+    std::cerr << "error: " << e.what() << '\n';
+    return kExitError;
+  }
+}

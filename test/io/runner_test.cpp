@@ -1,0 +1,180 @@
+// End-to-end tests of the headless runner (FLUID_SIM_RUN) on a tiny scene: 64 fluid particles,
+// 100 steps, well under a second per run.
+
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdlib>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <thread>
+
+#include "temp_dir.h"
+
+namespace fluid_sim
+{
+namespace
+{
+namespace fs = std::filesystem;
+
+const char* const kTinyScene = R"yaml(
+spacing: 0.05
+domain: {min: [-0.1, -0.1, -0.1], max: [0.5, 0.5, 0.6]}
+time_step: {fixed: 0.002}
+duration: 0.2
+fluid:
+  - box: {min: [0.05, 0.05, 0.05], max: [0.25, 0.25, 0.25]}
+boundaries:
+  - name: tank
+    box: {min: [0, 0, 0], max: [0.4, 0.4, 0.5]}
+    inside: true
+  - name: ball
+    sphere: {center: [0.3, 0.3, 0.1], radius: 0.05}
+output: {frame_interval: 0.05}
+)yaml";
+
+struct RunResult
+{
+  int exit_code = -1;
+  std::string out;  // stdout
+  std::string err;  // stderr
+};
+
+/// Runs "cd dir && fluid_sim_run <args>" and collects its exit code and output.
+RunResult run(const test::TempDir& dir, const std::string& args)
+{
+  const std::string command =
+      "cd '" + dir.path().string() + "' && '" FLUID_SIM_RUN "' " + args + " > run.stdout 2> run.stderr";
+  const int status = std::system(command.c_str());
+  RunResult r;
+  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  r.out = test::readFile(dir.file("run.stdout"));
+  r.err = test::readFile(dir.file("run.stderr"));
+  return r;
+}
+
+nlohmann::json readJson(const std::string& path)
+{
+  return nlohmann::json::parse(test::readFile(path));
+}
+
+std::size_t lineCount(const std::string& path)
+{
+  const std::string text = test::readFile(path);
+  return static_cast<std::size_t>(std::count(text.begin(), text.end(), '\n'));
+}
+
+TEST(Runner, RunsTinySceneIntoDefaultOutputDirectory)
+{
+  test::TempDir dir;
+  dir.write("tiny.yaml", kTinyScene);
+  const RunResult r = run(dir, "tiny.yaml --threads 1");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+
+  const fs::path out = dir.path() / "out" / "tiny";  // default: out/<scene stem>
+  const nlohmann::json summary = readJson((out / "summary.json").string());
+  EXPECT_EQ(summary["status"], "ok");
+  EXPECT_EQ(summary["scene"], "tiny.yaml");
+  EXPECT_EQ(summary["threads"], 1);
+  EXPECT_EQ(summary["steps"], 100);
+  EXPECT_NEAR(summary["simulated_time_s"].get<double>(), 0.2, 1e-9);
+  EXPECT_EQ(summary["fluid_particles"]["initial"], 64);
+  EXPECT_GT(summary["boundary_particles"].get<int>(), 0);
+  ASSERT_EQ(summary["bodies"].size(), 2u);
+  EXPECT_EQ(summary["bodies"][0]["name"], "tank");
+  // The tank carries the water: its mean force points down.
+  EXPECT_LT(summary["bodies"][0]["mean_force"][2].get<double>(), 0.0);
+
+  EXPECT_EQ(lineCount((out / "stats.csv").string()), 101u);  // header + one row per step
+  for (int k = 0; k <= 4; ++k)                               // t = 0, 0.05, ..., 0.2 s
+    EXPECT_TRUE(fs::exists(out / "frames" / ("00000" + std::to_string(k) + ".ply"))) << k;
+  EXPECT_FALSE(fs::exists(out / "frames" / "000005.ply"));
+  EXPECT_NE(r.out.find("status   ok"), std::string::npos) << r.out;
+}
+
+TEST(Runner, OverridesAndDuration)
+{
+  test::TempDir dir;
+  dir.write("tiny.yaml", kTinyScene);
+  const RunResult r = run(dir,
+                          "tiny.yaml --out result --duration 0.04 --set time_step.fixed=0.004 "
+                          "--set output.frame_interval=0 --set solver.boundary_pressure=sph");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json summary = readJson(dir.file("result/summary.json"));
+  EXPECT_EQ(summary["steps"], 10);
+  EXPECT_EQ(summary["method"], "sph");
+  EXPECT_EQ(summary["overrides"].size(), 3u);
+  EXPECT_FALSE(fs::exists(dir.path() / "result" / "frames"));
+}
+
+TEST(Runner, BadSceneExitsTwoNamingFileAndKey)
+{
+  test::TempDir dir;
+  dir.write("bad.yaml", std::string(kTinyScene) + "solver: {density_eror: 0.001}\n");
+  const RunResult r = run(dir, "bad.yaml");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("error: bad.yaml: solver.density_eror: unknown key"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir.path() / "out"));
+
+  dir.write("tiny.yaml", kTinyScene);
+  const RunResult unknown_override = run(dir, "tiny.yaml --set solver.omga=0.5");
+  EXPECT_EQ(unknown_override.exit_code, 2);
+  EXPECT_NE(unknown_override.err.find("solver.omga"), std::string::npos) << unknown_override.err;
+
+  EXPECT_EQ(run(dir, "missing.yaml").exit_code, 2);
+  EXPECT_EQ(run(dir, "tiny.yaml --threads 0").exit_code, 2);
+}
+
+TEST(Runner, UnstableRunExitsThreeWithSummary)
+{
+  test::TempDir dir;
+  dir.write("tiny.yaml", kTinyScene);
+  // A CFL limit no falling particle can keep: unstable within a few steps.
+  const RunResult r = run(dir, "tiny.yaml --out result --set stability.max_cfl=0.001");
+  EXPECT_EQ(r.exit_code, 3) << r.err;
+  EXPECT_NE(r.err.find("unstable"), std::string::npos) << r.err;
+  const nlohmann::json summary = readJson(dir.file("result/summary.json"));
+  EXPECT_EQ(summary["status"], "unstable");
+  EXPECT_NE(summary["reason"].get<std::string>().find("max_cfl"), std::string::npos) << summary["reason"];
+  EXPECT_EQ(lineCount(dir.file("result/stats.csv")), summary["steps"].get<std::size_t>() + 1);
+}
+
+TEST(Runner, SigintWritesInterruptedSummary)
+{
+  test::TempDir dir;
+  const std::string scene = dir.write("tiny.yaml", kTinyScene);
+  const std::string out = dir.file("result");
+  const pid_t pid = fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0)
+  {
+    const int sink = open("/dev/null", O_WRONLY);
+    dup2(sink, STDOUT_FILENO);
+    dup2(sink, STDERR_FILENO);
+    execl(FLUID_SIM_RUN, FLUID_SIM_RUN, scene.c_str(), "--out", out.c_str(), "--duration", "1000", "--threads", "1",
+          static_cast<char*>(nullptr));
+    _exit(127);
+  }
+  // Wait until it is stepping (the second frame exists), then interrupt.
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+  while (!fs::exists(out + "/frames/000001.ply") && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  kill(pid, SIGINT);
+  int status = 0;
+  ASSERT_EQ(waitpid(pid, &status, 0), pid);
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 130);
+  const nlohmann::json summary = readJson(out + "/summary.json");
+  EXPECT_EQ(summary["status"], "interrupted");
+  EXPECT_GT(summary["steps"].get<int>(), 0);
+}
+
+}  // namespace
+}  // namespace fluid_sim

@@ -1,0 +1,422 @@
+#include "fluid_sim/io/scene_loader.h"
+
+#include <gtest/gtest.h>
+
+#include <string>
+#include <vector>
+
+#include "fluid_sim/io/mesh_topology.h"
+#include "temp_dir.h"
+
+namespace fluid_sim
+{
+namespace
+{
+using io::loadScene;
+using io::parseScene;
+using io::SceneError;
+
+// Every key of the schema, with values other than the defaults.
+const char* const kFullScene = R"yaml(
+spacing: 0.02                 # m
+rest_density: 998.0
+gravity: [0, 0, -9.81]
+domain: {min: [-1, -1, -1], max: [2, 2, 2]}
+time_step: {cfl: 0.3, min: 2.0e-5, max: 0.004}
+solver:
+  boundary_pressure: sph
+  density_error: 0.002
+  divergence_error: 0.003
+  min_iterations: 3
+  max_iterations: 90
+  min_divergence_iterations: 2
+  divergence_solve: false
+  warm_start: true
+  omega: 0.6
+  clamp_boundary_pressure: false
+  mls_fit_radius: 2.5
+  mls_eigen_tolerance: 0.05
+  mls_singular: pseudo_inverse
+viscosity: {model: xsph, coefficient: 0.01, boundary: 0.02}
+stability: {max_density_error: 0.2, max_cfl: 1.5}
+duration: 2.5
+fluid:
+  - box: {min: [0, 0, 0], max: [0.2, 0.1, 0.4]}
+    velocity: [1, 0, 0]
+  - box: {min: [0.5, 0, 0], max: [0.6, 0.1, 0.1]}
+boundaries:
+  - name: tank
+    box: {min: [0, 0, 0], max: [1.0, 0.1, 0.6]}
+    inside: true
+  - sphere: {center: [0.5, 0.05, 0.3], radius: 0.05}
+  - name: drum
+    cylinder: {center: [0, 0, 0], axis: [0, 1, 0], radius: 0.3, length: 0.2}
+    inside: true
+    motion: {angular_velocity: [0, 0.73, 0], about: [0, 0, 0.1], linear_velocity: [0.1, 0, 0]}
+    pose: {xyz: [0.1, 0.2, 0.3], rpy: [0, 0, 1.5707963267948966]}
+    sample_spacing: 0.01
+    external: true
+  - name: part
+    mesh:
+      vertices: [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]]
+      triangles: [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]]
+    offset: none
+output: {frame_interval: 0.02}
+)yaml";
+
+// A small valid scene; tests add keys to it.
+const std::string kBase = R"yaml(
+spacing: 0.05
+domain: {min: [0, 0, 0], max: [1, 1, 1]}
+fluid:
+  - box: {min: [0.1, 0.1, 0.1], max: [0.5, 0.5, 0.5]}
+)yaml";
+
+const std::string kBoundaries = R"yaml(
+boundaries:
+  - name: tank
+    box: {min: [0, 0, 0], max: [1, 1, 1]}
+    inside: true
+  - name: ball
+    sphere: {center: [0.7, 0.7, 0.7], radius: 0.1}
+)yaml";
+
+/// Parses `yaml` as "scene.yaml" and returns the error message ("" if there was none).
+std::string errorOf(const std::string& yaml, const std::vector<std::string>& overrides = {})
+{
+  try
+  {
+    parseScene(yaml, "scene.yaml", overrides);
+  }
+  catch (const SceneError& e)
+  {
+    return e.what();
+  }
+  return "";
+}
+
+/// The message names the file and the key, as "scene.yaml: <key>: ...".
+void expectError(const std::string& yaml, const std::string& key, const std::string& detail = "",
+                 const std::vector<std::string>& overrides = {})
+{
+  const std::string what = errorOf(yaml, overrides);
+  EXPECT_NE(what.find(key.empty() ? "scene.yaml: " : "scene.yaml: " + key + ": "), std::string::npos)
+      << "message: " << what;
+  EXPECT_NE(what.find(detail), std::string::npos) << "message: " << what;
+}
+
+TEST(SceneLoader, FullExampleParses)
+{
+  const SceneConfig s = parseScene(kFullScene, "full.yaml");
+  EXPECT_EQ(s.source, "full.yaml");
+  EXPECT_DOUBLE_EQ(s.spacing, 0.02);
+  EXPECT_DOUBLE_EQ(s.rest_density, 998.0);
+  EXPECT_TRUE(s.gravity.isApprox(Vec3d(0, 0, -9.81)));
+  EXPECT_TRUE(s.domain.min.isApprox(Vec3d(-1, -1, -1)));
+  EXPECT_TRUE(s.domain.max.isApprox(Vec3d(2, 2, 2)));
+  EXPECT_TRUE(s.time_step.adaptive);
+  EXPECT_DOUBLE_EQ(s.time_step.cfl, 0.3);
+  EXPECT_DOUBLE_EQ(s.time_step.min, 2.0e-5);
+  EXPECT_DOUBLE_EQ(s.time_step.max, 0.004);
+
+  EXPECT_EQ(s.solver.boundary_pressure, BoundaryPressureMethod::SphExtrapolation);
+  EXPECT_DOUBLE_EQ(s.solver.density_error, 0.002);
+  EXPECT_DOUBLE_EQ(s.solver.divergence_error, 0.003);
+  EXPECT_EQ(s.solver.min_iterations, 3);
+  EXPECT_EQ(s.solver.max_iterations, 90);
+  EXPECT_EQ(s.solver.min_divergence_iterations, 2);
+  EXPECT_FALSE(s.solver.divergence_solve);
+  EXPECT_TRUE(s.solver.warm_start);
+  EXPECT_DOUBLE_EQ(s.solver.omega, 0.6);
+  EXPECT_FALSE(s.solver.clamp_boundary_pressure);
+  EXPECT_DOUBLE_EQ(s.solver.mls_fit_radius, 2.5);
+  EXPECT_DOUBLE_EQ(s.solver.mls_eigen_tolerance, 0.05);
+  EXPECT_EQ(s.solver.mls_singular, MlsSingularMode::PseudoInverse);
+
+  EXPECT_EQ(s.viscosity.model, ViscosityModel::Xsph);
+  EXPECT_DOUBLE_EQ(s.viscosity.coefficient, 0.01);
+  EXPECT_DOUBLE_EQ(s.viscosity.boundary, 0.02);
+  EXPECT_DOUBLE_EQ(s.stability.max_density_error, 0.2);
+  EXPECT_DOUBLE_EQ(s.stability.max_cfl, 1.5);
+  EXPECT_DOUBLE_EQ(s.duration, 2.5);
+  EXPECT_DOUBLE_EQ(s.output.frame_interval, 0.02);
+
+  ASSERT_EQ(s.fluid.size(), 2u);
+  EXPECT_TRUE(s.fluid[0].box.max.isApprox(Vec3d(0.2, 0.1, 0.4)));
+  EXPECT_TRUE(s.fluid[0].velocity.isApprox(Vec3d(1, 0, 0)));
+  EXPECT_TRUE(s.fluid[1].velocity.isZero());
+
+  ASSERT_EQ(s.boundaries.size(), 4u);
+  const BoundaryConfig& tank = s.boundaries[0];
+  EXPECT_EQ(tank.name, "tank");
+  EXPECT_EQ(tank.type, ShapeType::Box);
+  EXPECT_TRUE(tank.inside);
+  EXPECT_TRUE(tank.box.max.isApprox(Vec3d(1.0, 0.1, 0.6)));
+  EXPECT_TRUE(tank.motion.isStatic());
+  EXPECT_FALSE(tank.externally_posed);
+
+  const BoundaryConfig& ball = s.boundaries[1];
+  EXPECT_EQ(ball.name, "sphere1");  // default name: shape type and index
+  EXPECT_EQ(ball.type, ShapeType::Sphere);
+  EXPECT_FALSE(ball.inside);
+  EXPECT_TRUE(ball.sphere.center.isApprox(Vec3d(0.5, 0.05, 0.3)));
+  EXPECT_DOUBLE_EQ(ball.sphere.radius, 0.05);
+
+  const BoundaryConfig& drum = s.boundaries[2];
+  EXPECT_EQ(drum.type, ShapeType::Cylinder);
+  EXPECT_TRUE(drum.cylinder.axis.isApprox(Vec3d(0, 1, 0)));
+  EXPECT_DOUBLE_EQ(drum.cylinder.radius, 0.3);
+  EXPECT_DOUBLE_EQ(drum.cylinder.length, 0.2);
+  EXPECT_TRUE(drum.motion.angular_velocity.isApprox(Vec3d(0, 0.73, 0)));
+  EXPECT_TRUE(drum.motion.about.isApprox(Vec3d(0, 0, 0.1)));
+  EXPECT_TRUE(drum.motion.linear_velocity.isApprox(Vec3d(0.1, 0, 0)));
+  EXPECT_TRUE(drum.pose.translation.isApprox(Vec3d(0.1, 0.2, 0.3)));
+  EXPECT_TRUE(drum.pose.apply(Vec3d(1, 0, 0)).isApprox(Vec3d(0.1, 1.2, 0.3), 1e-12));  // yaw 90 degrees
+  EXPECT_DOUBLE_EQ(drum.sample_spacing, 0.01);
+  EXPECT_TRUE(drum.externally_posed);
+
+  const BoundaryConfig& part = s.boundaries[3];
+  EXPECT_EQ(part.type, ShapeType::Mesh);
+  EXPECT_EQ(part.mesh.vertices.size(), 4u);
+  EXPECT_EQ(part.mesh.triangles.size(), 4u);
+  EXPECT_TRUE(part.mesh_closed);
+  EXPECT_EQ(part.mesh_offset, SurfaceOffset::None);
+}
+
+TEST(SceneLoader, DefaultsForAbsentKeys)
+{
+  const SceneConfig s = parseScene(kBase, "scene.yaml");
+  const SceneConfig defaults;
+  EXPECT_FALSE(s.time_step.adaptive);
+  EXPECT_DOUBLE_EQ(s.time_step.fixed, defaults.time_step.fixed);
+  EXPECT_EQ(s.solver.boundary_pressure, defaults.solver.boundary_pressure);
+  EXPECT_DOUBLE_EQ(s.rest_density, defaults.rest_density);
+  EXPECT_TRUE(s.boundaries.empty());
+  EXPECT_DOUBLE_EQ(s.duration, defaults.duration);
+}
+
+TEST(SceneLoader, LoadsFileAndNamesItInErrors)
+{
+  test::TempDir dir;
+  const std::string good = dir.write("good.yaml", kBase + kBoundaries);
+  EXPECT_EQ(loadScene(good).source, good);
+  EXPECT_EQ(loadScene(good).boundaries.size(), 2u);
+
+  const std::string bad = dir.write("bad.yaml", kBase + "solver: {density_eror: 0.001}\n");
+  try
+  {
+    loadScene(bad);
+    FAIL() << "no error";
+  }
+  catch (const SceneError& e)
+  {
+    EXPECT_EQ(e.file(), bad);
+    EXPECT_EQ(e.key(), "solver.density_eror");
+    EXPECT_NE(std::string(e.what()).find(bad + ": solver.density_eror: unknown key"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("did you mean 'density_error'"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("line 6"), std::string::npos) << e.what();
+  }
+}
+
+TEST(SceneLoader, MissingFileIsAnError)
+{
+  const std::string path = "/nonexistent/dir/scene.yaml";
+  try
+  {
+    loadScene(path);
+    FAIL() << "no error";
+  }
+  catch (const ConfigError& e)  // SceneError is a ConfigError
+  {
+    EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("no such file"), std::string::npos) << e.what();
+  }
+}
+
+TEST(SceneLoader, YamlSyntaxErrorNamesLine)
+{
+  const std::string what = errorOf("spacing: 0.05\ndomain: {min: [0, 0, 0], max: [1, 1, 1]\nfluid: []\n");
+  EXPECT_NE(what.find("scene.yaml: "), std::string::npos) << what;
+  EXPECT_NE(what.find("YAML syntax error at line"), std::string::npos) << what;
+}
+
+TEST(SceneLoader, UnknownTopLevelKey)
+{
+  expectError(kBase + "spacin: 0.02\n", "spacin", "unknown key (did you mean 'spacing'?)");
+}
+
+TEST(SceneLoader, UnknownNestedKey)
+{
+  expectError(kBase + "solver: {density_eror: 0.001}\n", "solver.density_eror", "unknown key");
+  expectError(kBase + kBoundaries + "    motion: {angular_velocty: [0, 0, 1]}\n",
+              "boundaries[1].motion.angular_velocty", "unknown key");
+}
+
+TEST(SceneLoader, DuplicateKey)
+{
+  expectError(kBase + "rest_density: 1000\nrest_density: 998\n", "rest_density", "duplicate key");
+}
+
+TEST(SceneLoader, WrongType)
+{
+  expectError(kBase + "rest_density: heavy\n", "rest_density", "expected a number, got 'heavy'");
+  expectError(kBase + "gravity: [0, -9.81]\n", "gravity", "expected a 3-vector");
+  expectError(kBase + "gravity: [0, 0, down]\n", "gravity[2]", "expected a number");
+  expectError(kBase + "solver: {max_iterations: 2.5}\n", "solver.max_iterations", "expected an integer");
+  expectError(kBase + "solver: {warm_start: maybe}\n", "solver.warm_start", "expected true or false");
+  expectError(kBase + "solver: 3\n", "solver", "expected a map");
+  expectError(kBase + "boundaries: {tank: 1}\n", "boundaries", "expected a list");
+}
+
+TEST(SceneLoader, NegativeSpacing)
+{
+  expectError("spacing: -0.01\n" + kBase.substr(kBase.find("domain")), "spacing", "must be > 0");
+}
+
+TEST(SceneLoader, FluidBlockOutsideDomain)
+{
+  expectError("domain: {min: [0, 0, 0], max: [1, 1, 1]}\nfluid:\n  - box: {min: [0.5, 0.5, 0.5], max: [1.5, 1, 1]}\n",
+              "fluid[0].box", "outside the domain");
+}
+
+TEST(SceneLoader, EmptyFluidList)
+{
+  expectError("domain: {min: [0, 0, 0], max: [1, 1, 1]}\nfluid: []\n", "fluid", "no fluid block");
+}
+
+TEST(SceneLoader, MissingRequiredKey)
+{
+  expectError(kBase + "boundaries:\n  - sphere: {center: [0.7, 0.7, 0.7]}\n", "boundaries[0].sphere.radius", "missing");
+}
+
+TEST(SceneLoader, ExactlyOneShapeKey)
+{
+  expectError(kBase +
+                  "boundaries:\n  - box: {min: [0, 0, 0], max: [1, 1, 1]}\n    sphere: {center: [0, 0, 0], "
+                  "radius: 0.1}\n",
+              "boundaries[0]", "two shape keys");
+  expectError(kBase + "boundaries:\n  - name: nothing\n    inside: true\n", "boundaries[0]", "needs a shape");
+}
+
+TEST(SceneLoader, UnknownEnumValue)
+{
+  expectError(kBase + "solver: {boundary_pressure: mirror}\n", "solver.boundary_pressure",
+              "unknown value 'mirror' (expected mirroring, sph or mls)");
+  expectError(kBase + "viscosity: {model: laminar}\n", "viscosity.model", "expected none, artificial or xsph");
+  expectError(kBase + "solver: {mls_singular: ignore}\n", "solver.mls_singular", "expected fallback or pseudo_inverse");
+}
+
+TEST(SceneLoader, TimeStepIsFixedOrAdaptive)
+{
+  expectError(kBase + "time_step: {fixed: 0.001, cfl: 0.4}\n", "time_step", "either fixed or cfl");
+  expectError(kBase + "time_step: {fixed: 0.001, max: 0.01}\n", "time_step.max", "only with time_step.cfl");
+}
+
+TEST(SceneLoader, MeshFilesNotSupportedYet)
+{
+  expectError(kBase + "boundaries:\n  - mesh: {file: part.stl}\n", "boundaries[0].mesh.file",
+              "mesh files are not supported yet");
+}
+
+TEST(SceneLoader, OffsetOnlyForMeshes)
+{
+  expectError(kBase + kBoundaries + "    offset: none\n", "boundaries[1].offset", "only mesh boundaries");
+}
+
+TEST(SceneLoader, OverrideChangesValues)
+{
+  const SceneConfig s = parseScene(kBase + kBoundaries, "scene.yaml",
+                                   {"solver.boundary_pressure=sph", "gravity=[0,0,-1]", "spacing=0.04",
+                                    "viscosity.model=artificial", "boundaries[0].inside=false"});
+  EXPECT_EQ(s.solver.boundary_pressure, BoundaryPressureMethod::SphExtrapolation);
+  EXPECT_TRUE(s.gravity.isApprox(Vec3d(0, 0, -1)));
+  EXPECT_DOUBLE_EQ(s.spacing, 0.04);
+  EXPECT_EQ(s.viscosity.model, ViscosityModel::Artificial);  // a section absent from the file
+  EXPECT_FALSE(s.boundaries[0].inside);
+}
+
+TEST(SceneLoader, OverrideListIndex)
+{
+  const SceneConfig s =
+      parseScene(kBase + kBoundaries, "scene.yaml", {"boundaries[1].sphere.radius=0.2", "fluid[0].box.max[2]=0.6"});
+  EXPECT_DOUBLE_EQ(s.boundaries[1].sphere.radius, 0.2);
+  EXPECT_DOUBLE_EQ(s.fluid[0].box.max.z(), 0.6);
+  expectError(kBase + kBoundaries, "boundaries[5]", "index out of range", {"boundaries[5].sphere.radius=0.2"});
+}
+
+TEST(SceneLoader, OverrideOfUnknownKeyIsAnError)
+{
+  expectError(kBase, "solver.density_eror", "unknown key", {"solver.density_eror=0.01"});
+  expectError(kBase, "solver.density_eror", "--set solver.density_eror=0.01", {"solver.density_eror=0.01"});
+  expectError(kBase, "spacing", "not a map", {"spacing.x=1"});
+  expectError(kBase, "", "expected key.path=value", {"spacing"});
+  expectError(kBase, "fluid[0", "malformed key path", {"fluid[0=1"});
+}
+
+TEST(SceneLoader, OverrideValueIsChecked)
+{
+  expectError(kBase, "spacing", "expected a number, got 'fine' (after --set spacing=fine)", {"spacing=fine"});
+  expectError(kBase, "spacing", "must be > 0", {"spacing=-1"});
+}
+
+TEST(SceneLoader, OverrideSwitchesTimeStepMode)
+{
+  const std::string adaptive = kBase + "time_step: {cfl: 0.4, min: 1.0e-5, max: 0.005}\n";
+  const SceneConfig fixed = parseScene(adaptive, "scene.yaml", {"time_step.fixed=0.002"});
+  EXPECT_FALSE(fixed.time_step.adaptive);
+  EXPECT_DOUBLE_EQ(fixed.time_step.fixed, 0.002);
+
+  const SceneConfig back = parseScene(kBase + "time_step: {fixed: 0.001}\n", "scene.yaml", {"time_step.cfl=0.3"});
+  EXPECT_TRUE(back.time_step.adaptive);
+  EXPECT_DOUBLE_EQ(back.time_step.cfl, 0.3);
+
+  const SceneConfig whole = parseScene(adaptive, "scene.yaml", {"time_step={fixed: 0.003}"});
+  EXPECT_FALSE(whole.time_step.adaptive);
+  EXPECT_DOUBLE_EQ(whole.time_step.fixed, 0.003);
+}
+
+TEST(MeshTopology, ClosedOpenAndOrientation)
+{
+  TriangleMesh tetra;
+  tetra.vertices = {Vec3d(0, 0, 0), Vec3d(1, 0, 0), Vec3d(0, 1, 0), Vec3d(0, 0, 1)};
+  tetra.triangles = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}};  // outward
+  EXPECT_TRUE(io::isClosedMesh(tetra));
+  EXPECT_NEAR(io::signedVolume(tetra), 1.0 / 6.0, 1e-12);
+
+  TriangleMesh inward = tetra;
+  for (auto& t : inward.triangles) std::swap(t[1], t[2]);
+  EXPECT_LT(io::signedVolume(inward), 0.0);
+  EXPECT_TRUE(io::orientOutward(inward));
+  EXPECT_NEAR(io::signedVolume(inward), 1.0 / 6.0, 1e-12);
+
+  TriangleMesh open = tetra;
+  open.triangles.pop_back();
+  EXPECT_FALSE(io::isClosedMesh(open));
+  EXPECT_FALSE(io::orientOutward(open));
+
+  TriangleMesh inconsistent = tetra;
+  std::swap(inconsistent.triangles[0][1], inconsistent.triangles[0][2]);
+  EXPECT_FALSE(io::isClosedMesh(inconsistent));
+}
+
+TEST(SceneLoader, InlineMeshIsOrientedAndClassified)
+{
+  const std::string scene = kBase + R"yaml(
+boundaries:
+  - name: inward_tetra
+    mesh:
+      vertices: [[0.6, 0.6, 0.6], [0.9, 0.6, 0.6], [0.6, 0.9, 0.6], [0.6, 0.6, 0.9]]
+      triangles: [[0, 1, 2], [0, 3, 1], [0, 2, 3], [1, 3, 2]]
+  - name: paddle
+    mesh:
+      vertices: [[0.6, 0.6, 0.6], [0.9, 0.6, 0.6], [0.6, 0.9, 0.6]]
+      triangles: [[0, 1, 2]]
+)yaml";
+  const SceneConfig s = parseScene(scene, "scene.yaml");
+  EXPECT_TRUE(s.boundaries[0].mesh_closed);
+  EXPECT_GT(io::signedVolume(s.boundaries[0].mesh), 0.0);
+  EXPECT_FALSE(s.boundaries[1].mesh_closed);
+}
+
+}  // namespace
+}  // namespace fluid_sim
