@@ -214,17 +214,22 @@ struct Simulation::Impl
     for (const FluidBlockConfig& block : scene.fluid)
     {
       const Vec3d ext = block.box.max - block.box.min;
-      // Cell-centred lattice: a particle stands for the cube of side s around it, so a block that
-      // touches a wall leaves the first particle half a spacing from it.
-      const int n[3] = {std::max(1, int(std::floor(ext.x() / sp + 1e-6))),
-                        std::max(1, int(std::floor(ext.y() / sp + 1e-6))),
-                        std::max(1, int(std::floor(ext.z() / sp + 1e-6)))};
-      const Vec3d step(ext.x() / n[0], ext.y() / n[1], ext.z() / n[2]);
+      // Cell-centred lattice at exactly the spacing (a stretched lattice would start under rest
+      // density): a particle stands for the cube of side s around it, so a block that touches a
+      // wall leaves the first particle half a spacing from it. A remainder of the extent that is
+      // not a multiple of s is split evenly on both sides.
+      int n[3];
+      Vec3d start;
+      for (int a = 0; a < 3; ++a)
+      {
+        n[a] = std::max(1, int(std::floor(ext[a] / sp + 1e-6)));
+        start[a] = block.box.min[a] + 0.5 * (ext[a] - n[a] * sp) + 0.5 * sp;
+      }
       for (int k = 0; k < n[2]; ++k)
         for (int j = 0; j < n[1]; ++j)
           for (int i = 0; i < n[0]; ++i)
           {
-            const Vec3d pos = block.box.min + step.cwiseProduct(Vec3d(i + 0.5, j + 0.5, k + 0.5));
+            const Vec3d pos = start + sp * Vec3d(i, j, k);
             if (blockedByBody(pos))
             {
               ++removed_start;
