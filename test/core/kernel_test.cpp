@@ -68,3 +68,14 @@ TEST(Kernel, CompactSupport)
   EXPECT_EQ(kernel.gradW(Vec3(0, 0, 0)).norm(), 0);
   EXPECT_GT(kernel.W(Real(0)), kernel.W(Real(0.01)));
 }
+
+TEST(Kernel, GradientFactorMatchesGradient)
+{
+  const CubicKernel kernel(Real(0.04));
+  for (Real r : {Real(0.001), Real(0.015), Real(0.02), Real(0.025), Real(0.0399), Real(0.04), Real(0.05)})
+  {
+    const Vec3 x(r * Real(0.36), r * Real(0.48), r * Real(0.8));
+    const Vec3 expected = kernel.gradW(x);
+    EXPECT_LT((kernel.gradFactor(x.norm()) * x - expected).norm(), 1e-5 * (expected.norm() + 1)) << r;
+  }
+}

@@ -153,8 +153,8 @@ struct Simulation::Impl
       , mass(Real(cfg.rest_density * cfg.spacing * cfg.spacing * cfg.spacing))
       , kernel(Real(2.0 * cfg.spacing))
       , gravity(cfg.gravity.cast<Real>())
-      , fluid_grid(cfg.domain.min, cfg.domain.max, 2.0 * cfg.spacing, 1)
-      , boundary_grid(cfg.domain.min, cfg.domain.max, 2.0 * cfg.spacing, 1)
+      , fluid_grid(cfg.domain.min, cfg.domain.max, cfg.spacing, 2)
+      , boundary_grid(cfg.domain.min, cfg.domain.max, cfg.spacing, 2)
   {
     setupBodies();
     setupFluid();
@@ -380,14 +380,9 @@ struct Simulation::Impl
 
   void buildNeighbors()
   {
-    const Real hh = h;
     const CubicKernel& kern = kernel;
     // grad W(r) = factor * r  (factor = dW/dr / |r|, 1/m^5)
-    auto gradFactor = [&kern, hh](const Vec3& d, Real d2) -> Real {
-      (void)hh;
-      const Vec3 g = kern.gradW(d);
-      return d2 > 0 ? g.dot(d) / d2 : Real(0);
-    };
+    auto gradFactor = [&kern](const Vec3&, Real d2) -> Real { return kern.gradFactor(std::sqrt(d2)); };
     static const std::vector<Index> kIdentity;
     buildNeighborLists(x, fluid_grid, x, kIdentity, h, true, gradFactor, ff);
     if (!xb.empty())

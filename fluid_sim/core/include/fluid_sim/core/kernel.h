@@ -54,6 +54,17 @@ public:
     return r * (factor * inv_h_ / rl);
   }
 
+  /// (dW/dr) / r for 0 < r < h (0 outside), 1/m^5: grad W(r_vec) = gradFactor(|r|) * r_vec. The
+  /// neighbour lists store this scalar per pair instead of a vector.
+  Real gradFactor(Real r) const
+  {
+    const Real q = r * inv_h_;
+    if (q >= Real(1) || !(r > Real(0))) return Real(0);
+    if (q <= Real(0.5)) return l_ * (Real(3) * q - Real(2)) * inv_h_ * inv_h_;  // l q (3q - 2) / (h r), q / r = 1 / h
+    const Real a = Real(1) - q;
+    return -l_ * a * a * inv_h_ / r;
+  }
+
 private:
   Real h_, inv_h_, k_, l_, w_zero_;
 };
