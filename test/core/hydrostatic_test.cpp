@@ -14,10 +14,10 @@ namespace
 {
 constexpr double kG = 9.81;
 
-SceneConfig column(BoundaryPressureMethod method, double width, double depth)
+SceneConfig column(BoundaryPressureMethod method, double width, double depth, double spacing = 0.02)
 {
   SceneConfig s;
-  s.spacing = 0.02;
+  s.spacing = spacing;
   s.domain = {Vec3d(-0.1, -0.1, -0.1), Vec3d(width + 0.1, width + 0.1, depth + 0.3)};
   s.time_step.fixed = 0.001;
   s.solver.boundary_pressure = method;
@@ -139,19 +139,22 @@ TEST_P(PressureProfile, PressureIsRhoGDepth)
 
 TEST_P(Buoyancy, SubmergedCubeFeelsArchimedesForce)
 {
-  const double width = 0.3, depth = 0.4, side = 0.1;
-  SceneConfig s = column(GetParam(), width, depth);
+  // A 0.1 m cube, 7 spacings a side (at 5 spacings the error is -5.8 % for mls and +5.2 % for
+  // sph; see docs/method_notes.md), its faces on the fluid lattice, 0.3 x 0.3 m tank, 0.4 m deep.
+  const double s = 0.1 / 7.0, width = 21 * s, depth = 28 * s, side = 7 * s;
+  SceneConfig scene = column(GetParam(), width, depth, s);
   BoundaryConfig cube;
   cube.name = "cube";
   cube.type = ShapeType::Box;
-  cube.box = {Vec3d(0.1, 0.1, 0.12), Vec3d(0.1 + side, 0.1 + side, 0.12 + side)};
-  s.boundaries.push_back(cube);
-  Simulation sim(s);
-  EXPECT_EQ(sim.removedAtStart(), 125u);  // the lattice points inside the cube
+  cube.box = {Vec3d(7 * s, 7 * s, 8 * s), Vec3d(14 * s, 14 * s, 15 * s)};
+  scene.boundaries.push_back(cube);
+  Simulation sim(scene);
+  EXPECT_EQ(sim.removedAtStart(), 343u);  // the 7^3 lattice points inside the cube
   const Averages avg = settleAndAverage(sim, 0.6, 0.4, width * width - side * side);
   const double archimedes = 1000.0 * kG * side * side * side;
   EXPECT_NEAR(avg.body_force.z() / archimedes, 1.0, 0.05) << toString(GetParam()) << ": " << avg.body_force.transpose();
   EXPECT_NEAR(avg.body_force.x() / archimedes, 0.0, 0.05);
+  EXPECT_NEAR(avg.body_force.y() / archimedes, 0.0, 0.05);
 }
 
 TEST_P(Rest, BlockAtRestStaysAtRest)
@@ -180,9 +183,10 @@ INSTANTIATE_TEST_SUITE_P(Extrapolated, PressureProfile, kExtrapolated, methodNam
 // Known failures, kept runnable (--gtest_also_run_disabled_tests) and measured in the issue note:
 // mirroring's time-averaged pressure is ~15 % above rho0 g d in this column and the water does
 // not come to rest (max speeds 0.2-0.9 m/s near the tank's edges for all methods, worst for
-// mirroring); the cube's buoyancy is +5.5 % (sph), -5.7 % (mls), +36 % (mirroring) at 5
-// spacings per cube side.
+// mirroring); mirroring's cube buoyancy is +36 % at 5 spacings per cube side.
 INSTANTIATE_TEST_SUITE_P(DISABLED_Mirroring, PressureProfile, ::testing::Values(BoundaryPressureMethod::Mirroring),
                          methodName);
-INSTANTIATE_TEST_SUITE_P(DISABLED_AllMethods, Buoyancy, kAll, methodName);
+INSTANTIATE_TEST_SUITE_P(Extrapolated, Buoyancy, kExtrapolated, methodName);
+INSTANTIATE_TEST_SUITE_P(DISABLED_Mirroring, Buoyancy, ::testing::Values(BoundaryPressureMethod::Mirroring),
+                         methodName);
 INSTANTIATE_TEST_SUITE_P(DISABLED_AllMethods, Rest, kAll, methodName);
