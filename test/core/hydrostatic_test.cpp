@@ -157,21 +157,26 @@ TEST_P(Buoyancy, SubmergedCubeFeelsArchimedesForce)
   EXPECT_NEAR(avg.body_force.y() / archimedes, 0.0, 0.05);
 }
 
-TEST_P(Rest, BlockAtRestStaysAtRest)
+TEST_P(Rest, BlockAtRestComesToRest)
 {
+  // A 0.2 m block starts without pressure and compresses under its weight; the start-up
+  // transient (max speeds ~0.07 m/s) must decay, not grow. sqrt(g H) = 1.4 m/s is the speed scale
+  // of any motion the column could start.
   Simulation sim(column(GetParam(), 0.2, 0.2));
   const std::size_t n = sim.numFluidParticles();
-  double start_up = 0.0, settled = 0.0;
-  while (sim.time() < 0.7)
+  double peak_rms = 0.0, late_max = 0.0, rms = 0.0;
+  while (sim.time() < 3.0 - 1e-9)
   {
     const StepReport r = sim.step();
     ASSERT_FALSE(r.unstable) << r.reason;
-    // The block starts without pressure and compresses under its weight: a start-up transient.
-    double& slot = sim.time() < 0.2 ? start_up : settled;
-    slot = std::max(slot, r.max_speed);
+    double ke = 0.0;
+    for (const Vec3& v : sim.velocities()) ke += v.squaredNorm();
+    rms = std::sqrt(ke / sim.numFluidParticles());
+    peak_rms = std::max(peak_rms, rms);
+    if (sim.time() > 2.5) late_max = std::max(late_max, r.max_speed);
   }
-  // sqrt(g H) = 1.4 m/s is the speed scale of any motion a 0.2 m column could start.
-  EXPECT_LT(settled, 0.05) << toString(GetParam()) << " (start-up max " << start_up << " m/s)";
+  EXPECT_LT(late_max, 0.05) << toString(GetParam());
+  EXPECT_LT(rms, peak_rms / 3) << toString(GetParam()) << ": rms speed " << rms << " m/s, start-up peak " << peak_rms;
   EXPECT_EQ(sim.numFluidParticles(), n);
 }
 
@@ -181,12 +186,13 @@ const auto kExtrapolated = ::testing::Values(BoundaryPressureMethod::SphExtrapol
 INSTANTIATE_TEST_SUITE_P(AllMethods, Hydrostatics, kAll, methodName);
 INSTANTIATE_TEST_SUITE_P(Extrapolated, PressureProfile, kExtrapolated, methodName);
 // Known failures, kept runnable (--gtest_also_run_disabled_tests) and measured in the issue note:
-// mirroring's time-averaged pressure is ~15 % above rho0 g d in this column and the water does
-// not come to rest (max speeds 0.2-0.9 m/s near the tank's edges for all methods, worst for
-// mirroring); mirroring's cube buoyancy is +36 % at 5 spacings per cube side.
+// with mirroring (Eq. 2) the water in the box does not come to rest (rms speed grows to 0.37 m/s
+// in 3 s where sph and mls decay to 0.004 m/s), its time-averaged pressure is ~15 % above
+// rho0 g d and the cube's buoyancy +22 % at 7 spacings a side.
 INSTANTIATE_TEST_SUITE_P(DISABLED_Mirroring, PressureProfile, ::testing::Values(BoundaryPressureMethod::Mirroring),
                          methodName);
 INSTANTIATE_TEST_SUITE_P(Extrapolated, Buoyancy, kExtrapolated, methodName);
 INSTANTIATE_TEST_SUITE_P(DISABLED_Mirroring, Buoyancy, ::testing::Values(BoundaryPressureMethod::Mirroring),
                          methodName);
-INSTANTIATE_TEST_SUITE_P(DISABLED_AllMethods, Rest, kAll, methodName);
+INSTANTIATE_TEST_SUITE_P(Extrapolated, Rest, kExtrapolated, methodName);
+INSTANTIATE_TEST_SUITE_P(DISABLED_Mirroring, Rest, ::testing::Values(BoundaryPressureMethod::Mirroring), methodName);
