@@ -293,6 +293,7 @@ int main(int argc, char** argv)
   std::printf("fluid_sim_bench: scene %s, Real = %s, %zu threads, %d warm-up + %d measured steps per row\n",
               scene_path.c_str(), sizeof(fluid_sim::Real) == 4 ? "float" : "double", active_threads, warmup, steps);
   for (const std::string& o : overrides) std::printf("  --set %s\n", o.c_str());
+  for (const std::string& w : scenes.front().warnings) std::printf("  warning: %s\n", w.c_str());
   std::printf(
       "ms/step: wall clock of Simulation::step(); ns/(p*it): time in the two solves / (fluid particles x "
       "iterations);\nnbr_ms: neighbour search per step; dens_err: mean relative density error; peak_B/p: PROCESS "

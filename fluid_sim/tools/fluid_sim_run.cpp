@@ -192,6 +192,7 @@ int run(const Options& options)
   try
   {
     const SceneConfig scene = io::loadScene(options.scene, options.overrides);
+    for (const std::string& warning : scene.warnings) std::cerr << "warning: " << warning << '\n';
     sim = std::make_unique<Simulation>(scene);
   }
   catch (const io::SceneError& e)

@@ -312,10 +312,9 @@ TEST(SceneLoader, TimeStepIsFixedOrAdaptive)
   expectError(kBase + "time_step: {fixed: 0.001, max: 0.01}\n", "time_step.max", "only with time_step.cfl");
 }
 
-TEST(SceneLoader, MeshFilesNotSupportedYet)
+TEST(SceneLoader, MissingMeshFileIsAnError)
 {
-  expectError(kBase + "boundaries:\n  - mesh: {file: part.stl}\n", "boundaries[0].mesh.file",
-              "mesh files are not supported yet");
+  expectError(kBase + "boundaries:\n  - mesh: {file: part.stl}\n", "boundaries[0].mesh.file", "part.stl: no such file");
 }
 
 TEST(SceneLoader, OffsetOnlyForMeshes)

@@ -3,6 +3,8 @@
 #include <cmath>
 #include <sstream>
 
+#include "fluid_sim/core/boundary_sampling.h"
+
 namespace fluid_sim
 {
 const char* toString(BoundaryPressureMethod method)
@@ -141,6 +143,7 @@ void validate(const SceneConfig& s)
   requirePositive(s.stability.max_cfl, "stability.max_cfl");
   requireNonNegative(s.output.frame_interval, "output.frame_interval");
   requireNonNegative(s.duration, "duration");
+  if (s.max_boundary_particles < 1) throw ConfigError("max_boundary_particles", "must be >= 1");
 
   if (s.fluid.empty()) throw ConfigError("fluid", "the scene has no fluid block");
   for (std::size_t i = 0; i < s.fluid.size(); ++i)
@@ -192,6 +195,16 @@ void validate(const SceneConfig& s)
     requireNonNegative(b.sample_spacing, key + ".sample_spacing");
     if (b.sample_spacing > s.spacing)
       throw ConfigError(key + ".sample_spacing", "must not exceed the scene spacing " + str(s.spacing));
+    // Refuse a body too large for its spacing before anything is sampled.
+    const double ss = b.sample_spacing > 0.0 ? b.sample_spacing : s.spacing;  // m
+    const double estimate = estimateBoundaryParticles(b, ss, s.spacing);
+    if (!(estimate <= double(s.max_boundary_particles)))
+      throw ConfigError(key, "'" + b.name + "' would need about " +
+                                 std::to_string(static_cast<long long>(std::round(estimate))) +
+                                 " boundary particles at sample spacing " + str(ss) +
+                                 " m, more than max_boundary_particles = " + std::to_string(s.max_boundary_particles) +
+                                 "; use a coarser spacing or sample_spacing, a smaller body, or raise "
+                                 "max_boundary_particles");
   }
 }
 

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <array>
 #include <cerrno>
+#include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -14,7 +15,11 @@
 #include <sstream>
 #include <vector>
 
+#include "fluid_sim/core/boundary_sampling.h"
+#include "fluid_sim/core/mesh_inside_index.h"
+#include "fluid_sim/io/mesh_loader.h"
 #include "fluid_sim/io/mesh_topology.h"
+#include "fluid_sim/io/urdf_loader.h"
 
 namespace fluid_sim
 {
@@ -292,6 +297,29 @@ private:
 
 // ------------------------------------------------------------------------------------ sections
 
+/// What reading boundaries needs besides the YAML: where files are, and where notes go.
+struct LoadContext
+{
+  std::string source;        // scene file, for notes
+  std::string base_dir;      // relative file names are relative to it
+  PackageResolver packages;  // package:// URIs
+  double spacing = 0.02;     // m, the scene spacing (read before the boundaries)
+  std::size_t max_boundary_particles = 2000000;
+  std::vector<std::string>* warnings = nullptr;
+};
+
+/// Rethrows an error about a file named `written` in the scene (resolved to `resolved`) under the
+/// scene key `key`: "<written> (= <resolved>): <reason>", or the error's own text when it names
+/// something inside the file (a URDF link).
+[[noreturn]] void fileError(const Entry& at, const std::string& written, const std::string& resolved,
+                            const ConfigError& error)
+{
+  const bool about_file = error.key() == resolved || error.key() == written || error.key().empty();
+  const std::string shown = resolved.empty() || resolved == written ? written : written + " (= " + resolved + ")";
+  throw ConfigError(at.key,
+                    (about_file ? shown + ": " + error.message() : std::string(error.what())) + lineOf(at.node));
+}
+
 AxisBox readBox(const Entry& e)
 {
   MapReader r(e);
@@ -406,18 +434,61 @@ CylinderShape readCylinder(const Entry& e)
   return c;
 }
 
-TriangleMesh readMesh(const Entry& e)
+/// A mesh scale: one number, or one per axis; finite and not zero.
+Vec3d readScale(const Entry& e)
+{
+  Vec3d scale = e.node.IsSequence() ? readVec3(e) : Vec3d::Constant(readScalar<double>(e));
+  if (!scale.allFinite() || (scale.array() == 0.0).any())
+    throw ConfigError(e.key, "must be finite and not zero (a number or [x, y, z])" + lineOf(e.node));
+  return scale;
+}
+
+/// A boundary mesh: inline, or read from a file.
+struct SceneMesh
+{
+  TriangleMesh mesh;
+  bool closed = false;
+  std::string file;  // as written; "" for an inline mesh
+  std::size_t border_edges = 0;
+  std::size_t degenerate_triangles = 0;
+};
+
+SceneMesh readMesh(const Entry& e, const LoadContext& ctx)
 {
   MapReader r(e);
-  // Extension point: mesh: {file: ..., scale: ...} will load a mesh file (relative to the scene).
+  SceneMesh out;
   if (auto file = r.get("file"))
-    throw ConfigError(file->key, "mesh files are not supported yet; give vertices and triangles");
-  TriangleMesh mesh;
-  forEachItem(r.require("vertices"), [&](const Entry& v) { mesh.vertices.push_back(readVec3(v)); });
+  {
+    if (r.has("vertices") || r.has("triangles"))
+      throw ConfigError(e.key, "give either file or vertices and triangles, not both" + lineOf(e.node));
+    Vec3d scale = Vec3d::Ones();
+    if (auto sc = r.get("scale")) scale = readScale(*sc);
+    r.finish();
+    out.file = readScalar<std::string>(*file);
+    std::string path;
+    try
+    {
+      path = resolveResource(out.file, ctx.base_dir, ctx.packages);
+      MeshFile m = readMeshFile(path, scale);
+      out.mesh = std::move(m.mesh);
+      out.closed = m.closed;
+      out.border_edges = m.border_edges;
+      out.degenerate_triangles = m.degenerate_triangles;
+    }
+    catch (const ConfigError& error)
+    {
+      fileError(*file, out.file, path, error);
+    }
+    return out;
+  }
+  if (auto scale = r.get("scale")) throw ConfigError(scale->key, "only with file" + lineOf(scale->node));
+  forEachItem(r.require("vertices"), [&](const Entry& v) { out.mesh.vertices.push_back(readVec3(v)); });
   forEachItem(r.require("triangles"),
-              [&](const Entry& t) { mesh.triangles.push_back(readArray<int, 3>(t, "a triangle [i, j, k]")); });
+              [&](const Entry& t) { out.mesh.triangles.push_back(readArray<int, 3>(t, "a triangle [i, j, k]")); });
   r.finish();
-  return mesh;
+  out.closed = orientOutward(out.mesh);
+  buildInsideIndex(out.mesh);
+  return out;
 }
 
 Pose readPose(const Entry& e)
@@ -442,70 +513,205 @@ MotionConfig readMotion(const Entry& e)
   return m;
 }
 
-BoundaryConfig readBoundary(const Entry& e, std::size_t index)
+/// Refuses a body whose sampling would exceed the particle budget, naming the scene entry.
+void checkBudget(const Entry& e, const BoundaryConfig& b, const LoadContext& ctx)
+{
+  const double ss = b.sample_spacing > 0.0 ? b.sample_spacing : ctx.spacing;  // m
+  if (!(ss > 0.0)) return;                                                    // validate() reports the spacing
+  const double estimate = estimateBoundaryParticles(b, ss, ctx.spacing);
+  if (!(estimate <= double(ctx.max_boundary_particles)))
+    throw ConfigError(
+        e.key, "'" + b.name + "' would need about " + std::to_string(static_cast<long long>(std::round(estimate))) +
+                   " boundary particles at sample spacing " + std::to_string(ss) +
+                   " m, more than max_boundary_particles = " + std::to_string(ctx.max_boundary_particles) +
+                   "; use a coarser spacing or sample_spacing, a smaller body, or raise "
+                   "max_boundary_particles" +
+                   lineOf(e.node));
+}
+
+/// urdf: {file, links, joint_positions}: one body per selected link, each with the entry's common
+/// keys (`common`: inside, pose of the root link, motion, sample_spacing, external, offset).
+std::vector<BoundaryConfig> readUrdf(const Entry& e, const BoundaryConfig& common, double finest_spacing,
+                                     const LoadContext& ctx)
 {
   MapReader r(e);
-  // Exactly one shape key. Extension point: "urdf" will expand into one boundary per collision
-  // link (through a package:// resolver injected by the caller).
+  const Entry file = r.require("file");
+  const std::string written = readScalar<std::string>(file);
+  std::string path;
+  UrdfRobot robot;
+  try
+  {
+    path = resolveResource(written, ctx.base_dir, ctx.packages);
+    robot = readUrdfFile(path);
+  }
+  catch (const ConfigError& error)
+  {
+    fileError(file, written, path, error);
+  }
+  // Shown in messages as the scene names it.
+  const std::string urdf_name = written == path ? written : written + " (= " + path + ")";
+
+  UrdfBoundaryOptions options;
+  if (auto links = r.get("links"))
+    forEachItem(*links, [&](const Entry& item) {
+      const std::string name = readScalar<std::string>(item);
+      if (!robot.link(name))
+      {
+        std::vector<std::string> names;
+        for (const auto& l : robot.links) names.push_back(l.name);
+        throw ConfigError(item.key, "unknown link '" + name + "' in " + urdf_name + " (links: " + joinNames(names) +
+                                        ")" + lineOf(item.node));
+      }
+      if (std::find(options.links.begin(), options.links.end(), name) != options.links.end())
+        throw ConfigError(item.key, "link '" + name + "' is listed twice" + lineOf(item.node));
+      options.links.push_back(name);
+    });
+  if (auto positions = r.get("joint_positions"))
+  {
+    if (!positions->node.IsMap() && !positions->node.IsNull()) typeError(*positions, "a map {joint: position}");
+    MapReader check(*positions);  // rejects duplicate and non-scalar keys
+    for (const auto& item : positions->node)
+    {
+      const Entry value{item.second, childKey(positions->key, item.first.Scalar())};
+      const std::string name = item.first.Scalar();
+      const UrdfJoint* joint = robot.joint(name);
+      if (!joint)
+      {
+        std::vector<std::string> names;
+        for (const auto& j : robot.joints)
+          if (j.type != UrdfJointType::Fixed) names.push_back(j.name);
+        throw ConfigError(value.key, "unknown joint '" + name + "' in " + urdf_name +
+                                         " (movable joints: " + joinNames(names) + ")" + lineOf(item.first));
+      }
+      if (joint->type != UrdfJointType::Revolute && joint->type != UrdfJointType::Continuous &&
+          joint->type != UrdfJointType::Prismatic)
+        throw ConfigError(value.key, "joint '" + name + "' in " + urdf_name +
+                                         " is not revolute, continuous or prismatic: it has no position to set" +
+                                         lineOf(item.first));
+      options.joint_positions[name] = readScalar<double>(value);
+    }
+  }
+  r.finish();
+  options.root_pose = common.pose;
+  options.spacing = finest_spacing;
+  options.packages = ctx.packages;
+  std::vector<BoundaryConfig> bodies;
+  try
+  {
+    bodies = urdfBoundaries(robot, options, ctx.warnings);
+  }
+  catch (const ConfigError& error)
+  {
+    throw ConfigError(e.key, std::string(error.what()) + lineOf(e.node));
+  }
+  if (bodies.empty())
+    throw ConfigError(e.key, urdf_name + " has no link with collision geometry" +
+                                 (options.links.empty() ? std::string() : " among the links listed") + lineOf(e.node));
+  for (auto& b : bodies)
+  {
+    b.inside = common.inside;
+    b.motion = common.motion;
+    b.sample_spacing = common.sample_spacing;
+    b.externally_posed = common.externally_posed;
+    b.mesh_offset = common.mesh_offset;
+  }
+  return bodies;
+}
+
+/// One entry of `boundaries`: one body, or one per URDF link.
+std::vector<BoundaryConfig> readBoundary(const Entry& e, std::size_t index, const LoadContext& ctx)
+{
+  MapReader r(e);
+  // Exactly one shape key.
   std::vector<std::string> shapes;
   for (const char* name : {"box", "sphere", "cylinder", "mesh", "urdf"})
     if (r.has(name)) shapes.emplace_back(name);
   if (shapes.size() != 1)
     throw ConfigError(
-        e.key, (shapes.empty() ? std::string("needs a shape: box, sphere, cylinder or mesh")
+        e.key, (shapes.empty() ? std::string("needs a shape: box, sphere, cylinder, mesh or urdf")
                                : "has two shape keys, '" + shapes[0] + "' and '" + shapes[1] + "'; give exactly one") +
                    lineOf(e.node));
-  const Entry shape = r.require(shapes.front());
+  const std::string& shape_name = shapes.front();
+  const Entry shape = r.require(shape_name);
 
+  // The keys every shape shares; sample_spacing first, it sets the facet error of URDF primitives.
   BoundaryConfig b;
-  b.name = shapes.front() + std::to_string(index);
-  if (shapes.front() == "box")
-  {
-    b.type = ShapeType::Box;
-    b.box = readBox(shape);
-  }
-  else if (shapes.front() == "sphere")
-  {
-    b.type = ShapeType::Sphere;
-    b.sphere = readSphere(shape);
-  }
-  else if (shapes.front() == "cylinder")
-  {
-    b.type = ShapeType::Cylinder;
-    b.cylinder = readCylinder(shape);
-  }
-  else if (shapes.front() == "mesh")
-  {
-    b.type = ShapeType::Mesh;
-    b.mesh = readMesh(shape);
-    b.mesh_closed = orientOutward(b.mesh);
-  }
-  else
-  {
-    throw ConfigError(shape.key, "URDF boundaries are not supported yet");
-  }
-
-  r.read("name", b.name);
+  b.name = shape_name + std::to_string(index);
   r.read("inside", b.inside);
   if (auto pose = r.get("pose")) b.pose = readPose(*pose);
   if (auto motion = r.get("motion")) b.motion = readMotion(*motion);
   r.read("sample_spacing", b.sample_spacing);
   r.read("external", b.externally_posed);
+  bool offset_given = false;
   if (auto offset = r.get("offset"))
   {
-    if (b.type != ShapeType::Mesh)
-      throw ConfigError(offset->key, "only mesh boundaries have an offset" + lineOf(offset->node));
+    if (shape_name != "mesh" && shape_name != "urdf")
+      throw ConfigError(offset->key, "only mesh boundaries (mesh, urdf) have an offset" + lineOf(offset->node));
     b.mesh_offset = readEnum(*offset, {SurfaceOffset::Auto, SurfaceOffset::None});
+    offset_given = true;
   }
+  if (shape_name == "urdf")
+  {
+    if (auto name = r.get("name"))
+      throw ConfigError(name->key,
+                        "a urdf entry's bodies are named after its links; give no name" + lineOf(name->node));
+    r.finish();
+    const double finest = b.sample_spacing > 0.0 ? std::min(b.sample_spacing, ctx.spacing) : ctx.spacing;
+    std::vector<BoundaryConfig> bodies = readUrdf(shape, b, finest, ctx);
+    for (const auto& body : bodies) checkBudget(e, body, ctx);
+    return bodies;
+  }
+  r.read("name", b.name);
   r.finish();
-  return b;
+
+  if (shape_name == "box")
+  {
+    b.type = ShapeType::Box;
+    b.box = readBox(shape);
+  }
+  else if (shape_name == "sphere")
+  {
+    b.type = ShapeType::Sphere;
+    b.sphere = readSphere(shape);
+  }
+  else if (shape_name == "cylinder")
+  {
+    b.type = ShapeType::Cylinder;
+    b.cylinder = readCylinder(shape);
+  }
+  else
+  {
+    SceneMesh mesh = readMesh(shape, ctx);
+    b.type = ShapeType::Mesh;
+    b.mesh = std::move(mesh.mesh);
+    b.mesh_closed = mesh.closed;
+    if (ctx.warnings && !mesh.file.empty())
+    {
+      const std::string what = ctx.source + ": " + e.key + " '" + b.name + "' (" + mesh.file + ")";
+      for (auto& note : surfaceNotes(what, mesh.closed || (offset_given && b.mesh_offset == SurfaceOffset::None),
+                                     mesh.border_edges, mesh.degenerate_triangles))
+        ctx.warnings->push_back(std::move(note));
+    }
+  }
+  checkBudget(e, b, ctx);
+  return {b};
 }
 
-SceneConfig readScene(const YAML::Node& root)
+SceneConfig readScene(const YAML::Node& root, LoadContext& ctx)
 {
   MapReader r({root, ""});
   SceneConfig s;
   r.read("spacing", s.spacing);
+  if (auto e = r.get("max_boundary_particles"))
+  {
+    const double n = readScalar<double>(*e);
+    if (!(n >= 1.0 && n <= 1.0e12 && n == std::floor(n)))
+      throw ConfigError(e->key, "must be a whole number >= 1" + lineOf(e->node));
+    s.max_boundary_particles = static_cast<std::size_t>(n);
+  }
+  ctx.spacing = s.spacing;
+  ctx.max_boundary_particles = s.max_boundary_particles;
+  ctx.warnings = &s.warnings;
   r.read("rest_density", s.rest_density);
   r.read("gravity", s.gravity);
   if (auto e = r.get("domain")) s.domain = readBox(*e);
@@ -516,7 +722,9 @@ SceneConfig readScene(const YAML::Node& root)
   r.read("duration", s.duration);
   if (auto e = r.get("fluid")) forEachItem(*e, [&](const Entry& item) { s.fluid.push_back(readFluidBlock(item)); });
   if (auto e = r.get("boundaries"))
-    forEachItem(*e, [&](const Entry& item) { s.boundaries.push_back(readBoundary(item, s.boundaries.size())); });
+    forEachItem(*e, [&](const Entry& item) {
+      for (auto& b : readBoundary(item, s.boundaries.size(), ctx)) s.boundaries.push_back(std::move(b));
+    });
   if (auto e = r.get("output")) s.output = readOutput(*e);
   r.finish();
   return s;
@@ -681,7 +889,7 @@ YAML::Node parseYaml(const std::string& text)
 }  // namespace
 
 SceneConfig parseScene(const std::string& yaml_text, const std::string& source_name,
-                       const std::vector<std::string>& overrides)
+                       const std::vector<std::string>& overrides, const SceneLoadOptions& options)
 {
   std::vector<Override> applied;
   try
@@ -692,7 +900,19 @@ SceneConfig parseScene(const std::string& yaml_text, const std::string& source_n
       applied.push_back(parseOverride(text));
       applyOverride(root, applied.back());
     }
-    SceneConfig scene = readScene(root);
+    LoadContext ctx;
+    ctx.source = source_name;
+    ctx.base_dir =
+        options.base_dir.empty() ? std::filesystem::path(source_name).parent_path().string() : options.base_dir;
+    ctx.packages = options.packages;
+    if (!ctx.packages)
+    {
+      // The package the scene belongs to first (its own meshes resolve without any set-up), then
+      // ROS_PACKAGE_PATH.
+      const std::string own = enclosingPackageFolder(ctx.base_dir.empty() ? "." : ctx.base_dir);
+      ctx.packages = defaultPackageResolver(own.empty() ? std::vector<std::string>{} : std::vector<std::string>{own});
+    }
+    SceneConfig scene = readScene(root, ctx);
     scene.source = source_name;
     validate(scene);
     return scene;
@@ -707,7 +927,8 @@ SceneConfig parseScene(const std::string& yaml_text, const std::string& source_n
   }
 }
 
-SceneConfig loadScene(const std::string& path, const std::vector<std::string>& overrides)
+SceneConfig loadScene(const std::string& path, const std::vector<std::string>& overrides,
+                      const SceneLoadOptions& options)
 {
   std::error_code ec;
   if (!std::filesystem::exists(path, ec)) throw SceneError(path, "", "no such file");
@@ -717,7 +938,7 @@ SceneConfig loadScene(const std::string& path, const std::vector<std::string>& o
   std::ostringstream text;
   text << in.rdbuf();
   if (in.bad()) throw SceneError(path, "", std::string("cannot read: ") + std::strerror(errno));
-  return parseScene(text.str(), path, overrides);
+  return parseScene(text.str(), path, overrides, options);
 }
 
 }  // namespace io

@@ -4,6 +4,8 @@
 // ranges and consistency and throws ConfigError naming the key.
 
 #include <array>
+#include <cstddef>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -53,11 +55,16 @@ struct CylinderShape
   double length = 0.0;           // m, along axis
 };
 
+class MeshInsideIndex;  // mesh_inside_index.h
+
 /// A triangle mesh in the body frame. Triangles index `vertices`.
 struct TriangleMesh
 {
   std::vector<Vec3d> vertices;                // m
   std::vector<std::array<int, 3>> triangles;  // vertex indices
+  /// Optional acceleration of insideShape() for closed meshes, set by buildInsideIndex()
+  /// (io sets it for every mesh it reads); ignored if the counts no longer match the mesh.
+  std::shared_ptr<const MeshInsideIndex> inside_index;
 };
 
 enum class ShapeType
@@ -178,6 +185,13 @@ struct SceneConfig
   std::vector<BoundaryConfig> boundaries;  // key: boundaries
   OutputConfig output;
   double duration = 1.0;  // s, default run length for the runner     key: duration
+  /// Largest number of boundary particles one body may be sampled into; validate() refuses a
+  /// body whose estimate (from its surface area and sample spacing) exceeds it, before sampling.
+  std::size_t max_boundary_particles = 2000000;  //                    key: max_boundary_particles
+  /// Notes from loading the scene that are not errors (a URDF link without collision geometry
+  /// skipped, an open mesh used as a solid, degenerate triangles skipped), each naming its file.
+  /// Set by io; the caller shows them (the runner prints them to stderr).
+  std::vector<std::string> warnings;
 };
 
 /// Checks ranges and consistency; throws ConfigError whose key is the dotted scene key

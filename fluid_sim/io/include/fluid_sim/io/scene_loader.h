@@ -9,6 +9,7 @@
 
 #include "fluid_sim/core/scene_config.h"
 #include "fluid_sim/core/types.h"
+#include "fluid_sim/io/resource_resolver.h"
 
 namespace fluid_sim
 {
@@ -35,16 +36,31 @@ private:
   std::string what_;
 };
 
+/// What the loader needs from its caller beyond the scene text.
+struct SceneLoadOptions
+{
+  /// Finds a package's folder for package:// file names (the ROS node passes
+  /// ros::package::getPath). Empty: defaultPackageResolver() over the package that holds the scene
+  /// file (the nearest folder above it with a package.xml), then ROS_PACKAGE_PATH.
+  PackageResolver packages;
+  /// Folder that relative file names in the scene are relative to. Empty: the scene file's folder.
+  std::string base_dir;
+};
+
 /// Reads and validates a scene file. `overrides` are "key.path=value" strings (the runner's
 /// --set), applied to the YAML tree before conversion, e.g. "solver.boundary_pressure=sph",
 /// "gravity=[0,0,-1]", "boundaries[1].sphere.radius=0.1". Values are parsed as YAML. Setting
 /// time_step.fixed drops time_step.cfl/min/max; setting time_step.cfl drops time_step.fixed.
+/// Mesh files and URDFs named by the scene are read (relative to the scene file's folder);
+/// notes that are not errors land in scene.warnings, each naming its file.
 /// Sets scene.source = path. Throws SceneError.
-SceneConfig loadScene(const std::string& path, const std::vector<std::string>& overrides = {});
+SceneConfig loadScene(const std::string& path, const std::vector<std::string>& overrides = {},
+                      const SceneLoadOptions& options = {});
 
-/// As loadScene(), from YAML text; `source_name` is used in messages and as scene.source.
+/// As loadScene(), from YAML text; `source_name` is used in messages and as scene.source, and its
+/// folder is the base of relative file names unless options.base_dir is given.
 SceneConfig parseScene(const std::string& yaml_text, const std::string& source_name,
-                       const std::vector<std::string>& overrides = {});
+                       const std::vector<std::string>& overrides = {}, const SceneLoadOptions& options = {});
 
 }  // namespace io
 }  // namespace fluid_sim

@@ -1,0 +1,168 @@
+#include "fluid_sim/io/resource_resolver.h"
+
+#include <algorithm>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <regex>
+#include <sstream>
+
+#include "fluid_sim/core/types.h"
+
+namespace fluid_sim
+{
+namespace io
+{
+namespace fs = std::filesystem;
+
+namespace
+{
+bool startsWith(const std::string& text, const std::string& prefix)
+{
+  return text.compare(0, prefix.size(), prefix) == 0;
+}
+
+std::string relativeTo(const std::string& base_dir, const std::string& path)
+{
+  if (base_dir.empty() || fs::path(path).is_absolute()) return path;
+  return (fs::path(base_dir) / path).lexically_normal().string();
+}
+
+/// Name -> folder of every package found below the search folders (first found wins).
+struct PackageIndex
+{
+  std::map<std::string, std::string> packages;
+};
+
+void crawl(const fs::path& folder, int depth_left, PackageIndex& index)
+{
+  std::error_code ec;
+  if (!fs::is_directory(folder, ec)) return;
+  if (fs::exists(folder / "CATKIN_IGNORE", ec)) return;
+  const fs::path manifest = folder / "package.xml";
+  if (fs::is_regular_file(manifest, ec))
+  {
+    const std::string name = packageNameOf(manifest.string());
+    if (!name.empty()) index.packages.emplace(name, folder.lexically_normal().string());
+    return;  // rospack does not look inside a package
+  }
+  if (depth_left <= 0) return;
+  // Sorted, so that which of two same-named packages wins does not depend on the file system.
+  std::vector<fs::path> children;
+  for (fs::directory_iterator it(folder, fs::directory_options::skip_permission_denied, ec), end; !ec && it != end;
+       it.increment(ec))
+  {
+    const std::string leaf = it->path().filename().string();
+    if (!leaf.empty() && leaf[0] != '.' && it->is_directory(ec)) children.push_back(it->path());
+  }
+  std::sort(children.begin(), children.end());
+  for (const auto& child : children) crawl(child, depth_left - 1, index);
+}
+}  // namespace
+
+std::string packageNameOf(const std::string& package_xml)
+{
+  std::ifstream in(package_xml, std::ios::binary);
+  if (!in) return "";
+  std::ostringstream text;
+  text << in.rdbuf();
+  // Comments may hold example tags; drop them before looking for <name>.
+  const std::string xml = std::regex_replace(text.str(), std::regex("<!--[\\s\\S]*?-->"), "");
+  std::smatch match;
+  if (!std::regex_search(xml, match, std::regex("<name>\\s*([^<\\s]+)\\s*</name>"))) return "";
+  return match[1].str();
+}
+
+std::string enclosingPackageFolder(const std::string& start)
+{
+  std::error_code ec;
+  fs::path folder = fs::absolute(start.empty() ? fs::path(".") : fs::path(start), ec).lexically_normal();
+  if (ec) return "";
+  if (!fs::is_directory(folder, ec)) folder = folder.parent_path();
+  while (!folder.empty())
+  {
+    if (fs::is_regular_file(folder / "package.xml", ec)) return folder.string();
+    const fs::path parent = folder.parent_path();
+    if (parent == folder) break;
+    folder = parent;
+  }
+  return "";
+}
+
+PackageResolver defaultPackageResolver(const std::vector<std::string>& folders, int max_depth)
+{
+  // Roots are searched one at a time, in order, only as far as a lookup needs: a package found in
+  // the first folder never costs a crawl of a large ROS_PACKAGE_PATH entry (/usr/share).
+  struct State
+  {
+    std::mutex mutex;
+    bool roots_known = false;
+    std::vector<std::string> roots;
+    std::size_t next_root = 0;
+    int max_depth = 6;
+    PackageIndex index;
+  };
+  auto state = std::make_shared<State>();
+  state->roots = folders;
+  state->max_depth = max_depth;
+  return [state](const std::string& name) -> std::string {
+    std::lock_guard<std::mutex> lock(state->mutex);
+    if (!state->roots_known)  // ROS_PACKAGE_PATH as set at the first lookup
+    {
+      state->roots_known = true;
+      if (const char* env = std::getenv("ROS_PACKAGE_PATH"))
+      {
+        std::stringstream entries(env);
+        std::string entry;
+        while (std::getline(entries, entry, ':'))
+          if (!entry.empty()) state->roots.push_back(entry);
+      }
+    }
+    for (;;)
+    {
+      const auto it = state->index.packages.find(name);
+      if (it != state->index.packages.end()) return it->second;
+      if (state->next_root >= state->roots.size()) return "";
+      crawl(state->roots[state->next_root++], state->max_depth, state->index);
+    }
+  };
+}
+
+std::string resolveResource(const std::string& uri, const std::string& base_dir, const PackageResolver& packages)
+{
+  if (uri.empty()) throw ConfigError("", "empty file name");
+  if (startsWith(uri, "package://"))
+  {
+    const std::string rest = uri.substr(10);
+    const std::size_t slash = rest.find('/');
+    const std::string package = rest.substr(0, slash);
+    if (package.empty() || slash == std::string::npos || slash + 1 == rest.size())
+      throw ConfigError(uri, "malformed package URI (expected package://<package>/<path>)");
+    if (!packages) throw ConfigError(uri, "cannot resolve package://" + package + ": no package resolver was given");
+    const std::string folder = packages(package);
+    if (folder.empty())
+    {
+      const char* env = std::getenv("ROS_PACKAGE_PATH");
+      throw ConfigError(uri, "unknown package '" + package + "': put the folder that holds it on ROS_PACKAGE_PATH (" +
+                                 (env && *env ? "now " + std::string(env) : std::string("not set")) + ")");
+    }
+    return (fs::path(folder) / rest.substr(slash + 1)).lexically_normal().string();
+  }
+  if (startsWith(uri, "file://"))
+  {
+    const std::string path = uri.substr(7);
+    if (path.empty()) throw ConfigError(uri, "empty file URI");
+    return relativeTo(base_dir, path);
+  }
+  const std::size_t scheme = uri.find("://");
+  if (scheme != std::string::npos && uri.find('/') > scheme)
+    throw ConfigError(uri,
+                      "unsupported URI scheme '" + uri.substr(0, scheme) + "://' (use package://, file:// or a path)");
+  return relativeTo(base_dir, uri);
+}
+
+}  // namespace io
+}  // namespace fluid_sim

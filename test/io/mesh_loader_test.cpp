@@ -1,0 +1,264 @@
+// Mesh files into one TriangleMesh (STL ASCII and binary, OBJ, PLY, COLLADA with its unit and node
+// transforms), primitive tessellation, and the errors for bad mesh files.
+
+#include "fluid_sim/io/mesh_loader.h"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <string>
+
+#include "fluid_sim/core/boundary_sampling.h"
+#include "fluid_sim/io/mesh_topology.h"
+#include "temp_dir.h"
+
+namespace fluid_sim
+{
+namespace
+{
+using io::readMeshFile;
+
+const std::string kMeshes = FLUID_SIM_SOURCE_DIR "/test/fixtures/fluid_sim_test_pkg/meshes/";
+
+struct Box3
+{
+  Vec3d lo, hi;
+};
+
+Box3 bounds(const TriangleMesh& m)
+{
+  Box3 b{m.vertices.at(0), m.vertices.at(0)};
+  for (const auto& v : m.vertices)
+  {
+    b.lo = b.lo.cwiseMin(v);
+    b.hi = b.hi.cwiseMax(v);
+  }
+  return b;
+}
+
+/// The message of the ConfigError that `f` throws ("" if none).
+template <typename F>
+std::string errorOf(F&& f)
+{
+  try
+  {
+    f();
+  }
+  catch (const ConfigError& e)
+  {
+    return e.what();
+  }
+  return "";
+}
+
+void writeBinaryStl(const std::string& path, const std::vector<std::array<Vec3d, 3>>& triangles)
+{
+  std::ofstream out(path, std::ios::binary);
+  const std::string header(80, ' ');
+  out.write(header.data(), 80);
+  const auto n = static_cast<std::uint32_t>(triangles.size());
+  out.write(reinterpret_cast<const char*>(&n), 4);
+  for (const auto& t : triangles)
+  {
+    const float normal[3] = {0, 0, 0};
+    out.write(reinterpret_cast<const char*>(normal), 12);
+    for (const auto& v : t)
+    {
+      const float p[3] = {float(v.x()), float(v.y()), float(v.z())};
+      out.write(reinterpret_cast<const char*>(p), 12);
+    }
+    const std::uint16_t attribute = 0;
+    out.write(reinterpret_cast<const char*>(&attribute), 2);
+  }
+}
+
+TEST(MeshLoader, AsciiStlIsJoinedClosedAndOutward)
+{
+  const io::MeshFile f = readMeshFile(kMeshes + "unit_cube.stl");
+  EXPECT_EQ(f.mesh.vertices.size(), 8u);  // corners joined across faces (STL repeats them per face)
+  EXPECT_EQ(f.mesh.triangles.size(), 12u);
+  EXPECT_TRUE(f.closed);
+  EXPECT_TRUE(io::isClosedMesh(f.mesh));
+  EXPECT_NEAR(io::signedVolume(f.mesh), 1.0, 1e-12);
+  EXPECT_EQ(f.degenerate_triangles, 0u);
+  ASSERT_TRUE(f.mesh.inside_index);
+  const Box3 b = bounds(f.mesh);
+  EXPECT_TRUE(b.lo.isApprox(Vec3d(0, 0, 0)));
+  EXPECT_TRUE(b.hi.isApprox(Vec3d(1, 1, 1)));
+}
+
+TEST(MeshLoader, BinaryStlWoundInwardIsTurnedOutward)
+{
+  const io::MeshFile f = readMeshFile(kMeshes + "cube_inward.stl", Vec3d(0.2, 0.3, 0.4));
+  EXPECT_TRUE(f.closed);
+  EXPECT_EQ(f.mesh.vertices.size(), 8u);
+  EXPECT_NEAR(io::signedVolume(f.mesh), 0.2 * 0.3 * 0.4, 1e-9);
+  const Box3 b = bounds(f.mesh);
+  EXPECT_TRUE(b.lo.isApprox(Vec3d(-0.1, -0.15, -0.2), 1e-6));
+  EXPECT_TRUE(b.hi.isApprox(Vec3d(0.1, 0.15, 0.2), 1e-6));
+}
+
+TEST(MeshLoader, MirroringScaleKeepsTheMeshOutward)
+{
+  const io::MeshFile f = readMeshFile(kMeshes + "unit_cube.stl", Vec3d(-1, 1, 1));
+  EXPECT_TRUE(f.closed);
+  EXPECT_NEAR(io::signedVolume(f.mesh), 1.0, 1e-12);
+  EXPECT_TRUE(bounds(f.mesh).lo.isApprox(Vec3d(-1, 0, 0)));
+}
+
+TEST(MeshLoader, ObjQuadsAreTriangulated)
+{
+  const io::MeshFile f = readMeshFile(kMeshes + "pyramid.obj", Vec3d(0.1, 0.2, 0.3));
+  EXPECT_EQ(f.mesh.vertices.size(), 5u);
+  EXPECT_EQ(f.mesh.triangles.size(), 6u);
+  EXPECT_TRUE(f.closed);
+  EXPECT_NEAR(io::signedVolume(f.mesh), 0.1 * 0.2 * 0.3 / 3.0, 1e-9);  // base x height / 3
+}
+
+TEST(MeshLoader, PlyQuadsAreTriangulated)
+{
+  const io::MeshFile f = readMeshFile(kMeshes + "unit_cube.ply", Vec3d::Constant(2.0));
+  EXPECT_EQ(f.mesh.triangles.size(), 12u);
+  EXPECT_TRUE(f.closed);
+  EXPECT_NEAR(io::signedVolume(f.mesh), 8.0, 1e-9);
+}
+
+TEST(MeshLoader, ColladaUnitAndNodeTransformsAreApplied)
+{
+  // Two instances of a 10 cm cube in a file in centimetres: one at the origin, one moved by 30 cm
+  // along x and stretched to 20 cm along z. Its up axis is Z_UP: used as written, not rotated.
+  const io::MeshFile f = readMeshFile(kMeshes + "two_cubes_cm.dae");
+  EXPECT_EQ(f.mesh.triangles.size(), 24u);
+  EXPECT_TRUE(f.closed);  // two closed parts
+  EXPECT_NEAR(io::signedVolume(f.mesh), 0.001 + 0.002, 1e-9);
+  const Box3 b = bounds(f.mesh);
+  EXPECT_TRUE(b.lo.isApprox(Vec3d(-0.05, -0.05, -0.1), 1e-6)) << b.lo.transpose();
+  EXPECT_TRUE(b.hi.isApprox(Vec3d(0.35, 0.05, 0.1), 1e-6)) << b.hi.transpose();
+  // The first cube is where the file puts it (centred), not rotated to y-up.
+  BoundaryConfig body;
+  body.type = ShapeType::Mesh;
+  body.mesh = f.mesh;
+  EXPECT_TRUE(insideShape(body, Vec3d(0.0, 0.0, 0.04)));
+  EXPECT_FALSE(insideShape(body, Vec3d(0.0, 0.0, 0.06)));
+  EXPECT_TRUE(insideShape(body, Vec3d(0.3, 0.0, 0.09)));  // stretched along z
+  EXPECT_FALSE(insideShape(body, Vec3d(0.15, 0.0, 0.0)));
+}
+
+TEST(MeshLoader, DegenerateTrianglesAreCountedAndKept)
+{
+  test::TempDir dir;
+  // A cube plus a zero-area sliver (three collinear points) and a triangle with a repeated corner.
+  std::string text = test::readFile(kMeshes + "unit_cube.stl");
+  const std::string extra =
+      "  facet normal 0 0 0\n    outer loop\n      vertex 0 0 0\n      vertex 0.5 0 0\n      vertex 1 0 0\n"
+      "    endloop\n  endfacet\n"
+      "  facet normal 0 0 0\n    outer loop\n      vertex 0 0 0\n      vertex 0 0 0\n      vertex 1 1 1\n"
+      "    endloop\n  endfacet\n";
+  text.insert(text.rfind("endsolid"), extra);
+  const io::MeshFile f = readMeshFile(dir.write("degenerate.stl", text));
+  EXPECT_EQ(f.degenerate_triangles, 2u);
+  // The sampler skips the zero-area one too, and still covers the cube.
+  std::size_t skipped = 0;
+  const auto samples = sampleMeshSurface(f.mesh, 0.1, 0.0, &skipped);
+  EXPECT_EQ(skipped, 1u);
+  EXPECT_GT(samples.size(), 400u);
+  const auto notes = io::surfaceNotes("degenerate.stl", f.closed, f.border_edges, f.degenerate_triangles);
+  ASSERT_FALSE(notes.empty());
+  EXPECT_NE(notes[0].find("2 degenerate"), std::string::npos) << notes[0];
+}
+
+TEST(MeshLoader, OpenMeshIsNotClosedAndCountsItsRim)
+{
+  const io::MeshFile f = readMeshFile(kMeshes + "cup.stl");
+  EXPECT_FALSE(f.closed);
+  EXPECT_EQ(f.border_edges, 48u);  // the brim
+}
+
+TEST(MeshLoader, BadFilesGiveClearErrors)
+{
+  test::TempDir dir;
+  EXPECT_NE(errorOf([&] { readMeshFile(dir.file("missing.stl")); }).find("missing.stl: no such file"),
+            std::string::npos);
+  EXPECT_NE(errorOf([&] { readMeshFile(dir.path().string()); }).find("is a directory"), std::string::npos);
+
+  const std::string unknown = errorOf([&] { readMeshFile(dir.write("part.xyz", "hello")); });
+  EXPECT_NE(unknown.find("part.xyz: unknown mesh format '.xyz'"), std::string::npos) << unknown;
+  EXPECT_NE(errorOf([&] { readMeshFile(dir.write("part", "hello")); }).find("no file extension"), std::string::npos);
+
+  const std::string garbage = errorOf([&] { readMeshFile(dir.write("garbage.obj", "f 1 2 3\nthis is not obj\n")); });
+  EXPECT_NE(garbage.find("garbage.obj: "), std::string::npos) << garbage;
+
+  const std::string empty = errorOf([&] { readMeshFile(dir.write("empty.stl", "solid empty\nendsolid empty\n")); });
+  EXPECT_NE(empty.find("empty.stl: "), std::string::npos) << empty;
+  EXPECT_TRUE(empty.find("no triangles") != std::string::npos || empty.find("cannot read") != std::string::npos)
+      << empty;
+
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  writeBinaryStl(dir.file("nan.stl"), {{Vec3d(0, 0, 0), Vec3d(1, 0, 0), Vec3d(0, 1, 0)},
+                                       {Vec3d(0, 0, 0), Vec3d(nan, 0, 1), Vec3d(0, 1, 0)}});
+  const std::string with_nan = errorOf([&] { readMeshFile(dir.file("nan.stl")); });
+  EXPECT_NE(with_nan.find("nan.stl: "), std::string::npos) << with_nan;
+  EXPECT_NE(with_nan.find("NaN or infinite vertex"), std::string::npos) << with_nan;
+  const double inf = std::numeric_limits<double>::infinity();
+  writeBinaryStl(dir.file("inf.stl"), {{Vec3d(0, 0, 0), Vec3d(inf, 0, 0), Vec3d(0, 1, 0)}});
+  EXPECT_NE(errorOf([&] { readMeshFile(dir.file("inf.stl")); }).find("NaN or infinite vertex"), std::string::npos);
+
+  EXPECT_NE(errorOf([&] { readMeshFile(kMeshes + "unit_cube.stl", Vec3d(1, 0, 1)); }).find("scale must be"),
+            std::string::npos);
+
+  if (::geteuid() != 0)  // root reads anything
+  {
+    const std::string locked = dir.write("locked.stl", test::readFile(kMeshes + "unit_cube.stl"));
+    std::filesystem::permissions(locked, std::filesystem::perms::none);
+    EXPECT_NE(errorOf([&] { readMeshFile(locked); }).find("cannot open"), std::string::npos);
+  }
+}
+
+/// Largest distance from the true surface to the facets, sampled: points of the facets projected
+/// radially onto the true surface and the other way round.
+TEST(MeshLoader, PrimitiveTessellationsAreWithinTheirError)
+{
+  const TriangleMesh box = io::boxMesh(Vec3d(0.4, 0.3, 0.1));
+  EXPECT_EQ(box.vertices.size(), 8u);
+  EXPECT_EQ(box.triangles.size(), 12u);
+  EXPECT_TRUE(io::isClosedMesh(box));
+  EXPECT_NEAR(io::signedVolume(box), 0.4 * 0.3 * 0.1, 1e-12);
+
+  const double r = 0.1, error = 0.001;
+  const TriangleMesh cyl = io::cylinderMesh(r, 0.3, error);
+  EXPECT_TRUE(io::isClosedMesh(cyl));
+  EXPECT_GT(io::signedVolume(cyl), 0.0);
+  const TriangleMesh sph = io::sphereMesh(r, error);
+  EXPECT_TRUE(io::isClosedMesh(sph));
+  EXPECT_GT(io::signedVolume(sph), 0.0);
+  // Facet points lie within `error` of the true surface (radial distance; dense barycentric grid).
+  const auto worst = [](const TriangleMesh& m, auto&& distance) {
+    double w = 0.0;
+    for (const auto& t : m.triangles)
+      for (int i = 0; i <= 8; ++i)
+        for (int j = 0; j <= 8 - i; ++j)
+        {
+          const Vec3d& a = m.vertices[t[0]];
+          const Vec3d p = a + (m.vertices[t[1]] - a) * (i / 8.0) + (m.vertices[t[2]] - a) * (j / 8.0);
+          w = std::max(w, distance(p));
+        }
+    return w;
+  };
+  EXPECT_LE(worst(sph, [&](const Vec3d& p) { return std::abs(p.norm() - r); }), error);
+  EXPECT_LE(worst(cyl,
+                  [&](const Vec3d& p) {
+                    // Side points: radial distance; cap points: distance to the cap plane (0 here).
+                    return std::abs(std::abs(p.z()) - 0.15) < 1e-12 ? 0.0 : std::abs(p.head<2>().norm() - r);
+                  }),
+            error);
+  // Volumes within the facet error times the area.
+  EXPECT_NEAR(io::signedVolume(sph), 4.0 / 3.0 * M_PI * r * r * r, 4.0 * M_PI * r * r * error);
+  EXPECT_NEAR(io::signedVolume(cyl), M_PI * r * r * 0.3, 2.0 * M_PI * r * 0.3 * error);
+}
+
+}  // namespace
+}  // namespace fluid_sim
