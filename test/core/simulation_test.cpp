@@ -143,3 +143,23 @@ TEST(Simulation, ExternalPosesGiveVelocities)
   EXPECT_NEAR(sim.body(idx).linear_velocity.x(), 0.1, 1e-9);
   EXPECT_NEAR(sim.body(idx).pose.translation.x(), 0.1 * 0.04, 1e-12);
 }
+
+TEST(Simulation, FluidOverlappingAnOpenShellIsClearedFromIt)
+{
+  // A thin open plate (two triangles, no inside) through the middle of a fluid block.
+  SceneConfig s = smallScene();
+  s.spacing = 0.02;
+  BoundaryConfig plate;
+  plate.name = "plate";
+  plate.type = ShapeType::Mesh;
+  plate.mesh.vertices = {Vec3d(-0.05, -0.05, 0.1), Vec3d(0.25, -0.05, 0.1), Vec3d(0.25, 0.25, 0.1),
+                         Vec3d(-0.05, 0.25, 0.1)};
+  plate.mesh.triangles = {{0, 1, 2}, {0, 2, 3}};
+  plate.mesh_closed = false;
+  s.boundaries.push_back(plate);
+  Simulation sim(s);
+  // The lattice layers at z = 0.09 and 0.11 lie half a spacing from the plate: both are dropped.
+  EXPECT_EQ(sim.removedAtStart(), 2u * 10u * 10u);
+  for (const Vec3& x : sim.positions())
+    for (const Vec3& b : sim.boundaryPositions()) ASSERT_GE((x - b).norm(), 0.75 * 0.02 - 1e-6);
+}

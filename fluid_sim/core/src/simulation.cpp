@@ -157,6 +157,7 @@ struct Simulation::Impl
       , boundary_grid(cfg.domain.min, cfg.domain.max, cfg.spacing, 2)
   {
     setupBodies();
+    indexOpenShells();
     setupFluid();
     a_ref = referenceDiagonal();
     dt_next = computeTimeStep();
@@ -251,6 +252,7 @@ struct Simulation::Impl
 
   bool blockedByBody(const Vec3d& pos) const
   {
+    if (open_shells && nearOpenShell(pos)) return true;
     for (const Body& body : bodies)
     {
       if (body.config.type == ShapeType::Mesh && !body.config.mesh_closed) continue;
@@ -259,6 +261,36 @@ struct Simulation::Impl
       if (body.config.inside ? !in : in) return true;
     }
     return false;
+  }
+
+  /// Open meshes (a cup, a paddle) have no inside: a lattice point closer than 0.75 s to one of
+  /// their boundary particles would start inside the shell's layer and be shot off in the first
+  /// step, so it is dropped like a point inside a solid.
+  std::unique_ptr<UniformGrid> open_shells;
+  std::vector<Vec3> open_shell_points;  // m, world, in open_shells' cell order
+
+  void indexOpenShells()
+  {
+    std::vector<Vec3> pts;
+    for (const Body& body : bodies)
+      if (body.config.type == ShapeType::Mesh && !body.config.mesh_closed)
+        pts.insert(pts.end(), xb.begin() + body.offset, xb.begin() + body.offset + body.local.size());
+    if (pts.empty()) return;
+    open_shells = std::make_unique<UniformGrid>(scene.domain.min, scene.domain.max, scene.spacing, 2);
+    open_shells->build(pts);
+    open_shell_points.resize(open_shells->numInside());
+    for (std::size_t k = 0; k < open_shell_points.size(); ++k) open_shell_points[k] = pts[open_shells->order()[k]];
+  }
+
+  bool nearOpenShell(const Vec3d& pos) const
+  {
+    const Vec3 p = pos.cast<Real>();
+    const Real r2 = Real(0.75 * 0.75 * scene.spacing * scene.spacing);
+    bool near = false;
+    open_shells->forEachRange(p, 1, [&](Index begin, Index end) {
+      for (Index k = begin; k < end && !near; ++k) near = (open_shell_points[k] - p).squaredNorm() < r2;
+    });
+    return near;
   }
 
   /// |A_i| for a particle in a full cubic lattice (no boundary), the scale of the diagonal.
