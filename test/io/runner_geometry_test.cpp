@@ -22,24 +22,12 @@ namespace fs = std::filesystem;
 
 const std::string kFixtures = FLUID_SIM_SOURCE_DIR "/test/fixtures";
 
-struct RunResult
-{
-  int exit_code = -1;
-  std::string out;
-  std::string err;
-};
+using test::RunResult;
 
 /// Runs "cd dir && ROS_PACKAGE_PATH=<fixtures> fluid_sim_run <args>".
 RunResult run(const test::TempDir& dir, const std::string& args)
 {
-  const std::string command = "cd '" + dir.path().string() + "' && ROS_PACKAGE_PATH='" + kFixtures +
-                              "' '" FLUID_SIM_RUN "' " + args + " > run.stdout 2> run.stderr";
-  const int status = std::system(command.c_str());
-  RunResult r;
-  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  r.out = test::readFile(dir.file("run.stdout"));
-  r.err = test::readFile(dir.file("run.stderr"));
-  return r;
+  return test::runRunner(dir, args, "ROS_PACKAGE_PATH='" + std::string(kFixtures) + "' ");
 }
 
 /// A tiny tank scene (64 particles) with `boundary` (YAML list entries) added.

@@ -40,24 +40,11 @@ boundaries:
 output: {frame_interval: 0.05}
 )yaml";
 
-struct RunResult
-{
-  int exit_code = -1;
-  std::string out;  // stdout
-  std::string err;  // stderr
-};
+using test::RunResult;
 
-/// Runs "cd dir && fluid_sim_run <args>" and collects its exit code and output.
 RunResult run(const test::TempDir& dir, const std::string& args)
 {
-  const std::string command =
-      "cd '" + dir.path().string() + "' && '" FLUID_SIM_RUN "' " + args + " > run.stdout 2> run.stderr";
-  const int status = std::system(command.c_str());
-  RunResult r;
-  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  r.out = test::readFile(dir.file("run.stdout"));
-  r.err = test::readFile(dir.file("run.stderr"));
-  return r;
+  return test::runRunner(dir, args);
 }
 
 nlohmann::json readJson(const std::string& path)

@@ -1,8 +1,10 @@
 #pragma once
 // A scratch directory for one test, removed with everything in it when the test ends.
 
+#include <sys/wait.h>
 #include <unistd.h>
 
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -59,6 +61,30 @@ inline std::string readFile(const std::string& path)
   std::ifstream in(path, std::ios::binary);
   return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
 }
+
+/// Exit code and output of one fluid_sim_run invocation.
+struct RunResult
+{
+  int exit_code = -1;
+  std::string out;  // stdout
+  std::string err;  // stderr
+};
+
+#ifdef FLUID_SIM_RUN
+/// Runs "cd dir && [env] fluid_sim_run <args>" (env: e.g. "ROS_PACKAGE_PATH='...' ") and collects
+/// its exit code and output.
+inline RunResult runRunner(const TempDir& dir, const std::string& args, const std::string& env = "")
+{
+  const std::string command =
+      "cd '" + dir.path().string() + "' && " + env + "'" FLUID_SIM_RUN "' " + args + " > run.stdout 2> run.stderr";
+  const int status = std::system(command.c_str());
+  RunResult r;
+  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  r.out = readFile(dir.file("run.stdout"));
+  r.err = readFile(dir.file("run.stderr"));
+  return r;
+}
+#endif
 
 }  // namespace test
 }  // namespace fluid_sim
