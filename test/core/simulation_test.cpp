@@ -163,3 +163,41 @@ TEST(Simulation, FluidOverlappingAnOpenShellIsClearedFromIt)
   for (const Vec3& x : sim.positions())
     for (const Vec3& b : sim.boundaryPositions()) ASSERT_GE((x - b).norm(), 0.75 * 0.02 - 1e-6);
 }
+
+TEST(Simulation, SettingsChangeBetweenStepsAndBadOnesLeaveItUnchanged)
+{
+  SceneConfig s = smallScene();
+  s.solver.min_iterations = 2;
+  Simulation sim(s);
+  sim.step();
+
+  SolverConfig solver = sim.scene().solver;
+  solver.min_iterations = 7;
+  solver.density_error = 0.0005;
+  ViscosityConfig visc;
+  visc.model = ViscosityModel::Xsph;
+  visc.coefficient = 0.1;
+  sim.updateSettings(solver, visc, sim.scene().stability);
+  EXPECT_EQ(sim.scene().solver.min_iterations, 7);
+  EXPECT_EQ(sim.scene().viscosity.model, ViscosityModel::Xsph);
+  // The new minimum takes effect in the next step.
+  EXPECT_GE(sim.step().density_iterations, 7);
+
+  SolverConfig bad = sim.scene().solver;
+  bad.density_error = -1.0;
+  try
+  {
+    sim.updateSettings(bad, visc, sim.scene().stability);
+    FAIL() << "negative tolerance accepted";
+  }
+  catch (const ConfigError& e)
+  {
+    EXPECT_EQ(e.key(), "solver.density_error");
+  }
+  EXPECT_DOUBLE_EQ(sim.scene().solver.density_error, 0.0005);
+
+  SolverConfig other_method = sim.scene().solver;
+  other_method.boundary_pressure = BoundaryPressureMethod::Mirroring;
+  EXPECT_THROW(sim.updateSettings(other_method, visc, sim.scene().stability), ConfigError);
+  EXPECT_EQ(sim.scene().solver.boundary_pressure, BoundaryPressureMethod::Mls);
+}

@@ -985,6 +985,26 @@ void Simulation::setBodyPose(std::size_t index, const Pose& pose)
   body.pose_pending = true;
 }
 
+void Simulation::updateSettings(const SolverConfig& solver, const ViscosityConfig& viscosity,
+                                const StabilityConfig& stability)
+{
+  const SolverConfig& old = impl_->scene.solver;
+  if (solver.boundary_pressure != old.boundary_pressure)
+    throw ConfigError("solver.boundary_pressure",
+                      "is fixed when the simulation is built (" + std::string(toString(old.boundary_pressure)) + ")");
+  if (solver.mls_fit_radius != old.mls_fit_radius || solver.mls_eigen_tolerance != old.mls_eigen_tolerance ||
+      solver.mls_singular != old.mls_singular)
+    throw ConfigError("solver.mls_fit_radius", "the MLS fit settings are fixed when the simulation is built");
+  SceneConfig next = impl_->scene;
+  next.solver = solver;
+  next.viscosity = viscosity;
+  next.stability = stability;
+  validate(next);  // throws before anything changes
+  impl_->scene.solver = solver;
+  impl_->scene.viscosity = viscosity;
+  impl_->scene.stability = stability;
+}
+
 std::size_t Simulation::bodyIndex(const std::string& name) const
 {
   for (std::size_t k = 0; k < impl_->bodies.size(); ++k)

@@ -69,11 +69,19 @@ public:
   /// Advances by one time step (fixed, or CFL-adaptive).
   StepReport step();
 
-  /// Poses an externally driven body for the next step (at time() + next dt); its velocity
-  /// follows from the change of pose over the step. `index` from bodyIndex().
+  /// Poses an externally driven body (`external: true`) for the next step: `pose` is its pose at
+  /// time(), the start of that step. Its velocity follows from the change of pose since the
+  /// previous one (zero for the first). `index` from bodyIndex().
   void setBodyPose(std::size_t index, const Pose& pose);
   /// Index of the body with this name; throws ConfigError if there is none.
   std::size_t bodyIndex(const std::string& name) const;
+
+  /// Settings that may change between steps (the ROS node's dynamic_reconfigure): solver
+  /// tolerances and iteration limits, warm start, omega, viscosity and stability limits. The
+  /// boundary pressure method and the MLS fit settings are fixed at construction; a different
+  /// value for them, or one that fails validate(), throws ConfigError naming the key and leaves
+  /// the simulation unchanged.
+  void updateSettings(const SolverConfig& solver, const ViscosityConfig& viscosity, const StabilityConfig& stability);
 
   double time() const;
   /// The time step the next step() will take, s.
