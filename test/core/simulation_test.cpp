@@ -142,6 +142,14 @@ TEST(Simulation, ExternalPosesGiveVelocities)
   }
   EXPECT_NEAR(sim.body(idx).linear_velocity.x(), 0.1, 1e-9);
   EXPECT_NEAR(sim.body(idx).pose.translation.x(), 0.1 * 0.04, 1e-12);
+
+  // A jump (after a pause or reset) places the body without a velocity spike.
+  Pose far;
+  far.translation = Vec3d(0.2, 0, 0);
+  sim.setBodyPose(idx, far, true);
+  sim.step();
+  EXPECT_EQ(sim.body(idx).linear_velocity, Vec3d::Zero());
+  EXPECT_NEAR(sim.body(idx).pose.translation.x(), 0.2, 1e-12);
 }
 
 TEST(Simulation, FluidOverlappingAnOpenShellIsClearedFromIt)

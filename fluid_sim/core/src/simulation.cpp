@@ -92,6 +92,7 @@ struct Body
   Vec3d a_origin = Vec3d::Zero(), alpha = Vec3d::Zero();  // m/s^2, rad/s^2 (world)
   bool moving = false;
   bool pose_pending = false;
+  bool pose_jump = false;  // the pending pose is a placement, not a motion (no velocity from it)
   bool has_previous_pose = false;
   Pose pending_pose;
   double last_pose_time = 0.0;
@@ -334,7 +335,14 @@ struct Simulation::Impl
       if (body.pose_pending)
       {
         const double dt = time - body.last_pose_time;
-        if (body.has_previous_pose && dt > 0.0)
+        if (body.pose_jump)
+        {
+          body.v_origin.setZero();
+          body.omega.setZero();
+          body.a_origin.setZero();
+          body.alpha.setZero();
+        }
+        else if (body.has_previous_pose && dt > 0.0)
         {
           // Velocities follow the poses: backward differences over the last interval.
           const Vec3d v_new = (body.pending_pose.translation - body.pose.translation) / dt;
@@ -975,7 +983,7 @@ StepReport Simulation::step()
   return impl_->step();
 }
 
-void Simulation::setBodyPose(std::size_t index, const Pose& pose)
+void Simulation::setBodyPose(std::size_t index, const Pose& pose, bool jump)
 {
   if (index >= impl_->bodies.size()) throw ConfigError("body", "no body with index " + std::to_string(index));
   Body& body = impl_->bodies[index];
@@ -983,6 +991,7 @@ void Simulation::setBodyPose(std::size_t index, const Pose& pose)
     throw ConfigError(body.config.name, "body is not externally posed (set `external: true`)");
   body.pending_pose = pose;
   body.pose_pending = true;
+  body.pose_jump = jump;
 }
 
 void Simulation::updateSettings(const SolverConfig& solver, const ViscosityConfig& viscosity,

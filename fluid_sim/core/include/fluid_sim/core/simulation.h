@@ -71,8 +71,10 @@ public:
 
   /// Poses an externally driven body (`external: true`) for the next step: `pose` is its pose at
   /// time(), the start of that step. Its velocity follows from the change of pose since the
-  /// previous one (zero for the first). `index` from bodyIndex().
-  void setBodyPose(std::size_t index, const Pose& pose);
+  /// previous one (zero for the first). `jump` = true places it without deriving a velocity
+  /// (velocity zero): for a pose after a pause or a reset, which is not a motion over one step.
+  /// `index` from bodyIndex().
+  void setBodyPose(std::size_t index, const Pose& pose, bool jump = false);
   /// Index of the body with this name; throws ConfigError if there is none.
   std::size_t bodyIndex(const std::string& name) const;
 
