@@ -1,0 +1,86 @@
+#include "fluid_sim/ros/messages.h"
+
+#include <cstring>
+
+namespace fluid_sim
+{
+namespace ros_bridge
+{
+namespace
+{
+void setFields(sensor_msgs::PointCloud2& cloud, const std::vector<std::string>& names, std::size_t points)
+{
+  cloud.fields.clear();
+  for (std::size_t k = 0; k < names.size(); ++k)
+  {
+    sensor_msgs::PointField f;
+    f.name = names[k];
+    f.offset = static_cast<std::uint32_t>(4 * k);
+    f.datatype = sensor_msgs::PointField::FLOAT32;
+    f.count = 1;
+    cloud.fields.push_back(f);
+  }
+  cloud.height = 1;
+  cloud.width = static_cast<std::uint32_t>(points);
+  cloud.is_bigendian = false;  // x86 and ARM as ROS runs them; rviz reads it as given
+  cloud.is_dense = true;       // the solver never hands out NaN positions (it reports instead)
+  cloud.point_step = static_cast<std::uint32_t>(4 * names.size());
+  cloud.row_step = cloud.point_step * cloud.width;
+  cloud.data.resize(static_cast<std::size_t>(cloud.row_step));
+}
+}  // namespace
+
+void fillParticleCloud(const FluidSnapshot& fluid, std::size_t max_points, sensor_msgs::PointCloud2& cloud)
+{
+  const std::size_t n = fluid.positions.size();
+  const std::size_t stride = (max_points == 0 || n <= max_points) ? 1 : (n + max_points - 1) / max_points;
+  const std::size_t count = (n + stride - 1) / stride;
+  setFields(cloud, {"x", "y", "z", "vx", "vy", "vz", "pressure", "density", "speed"}, count);
+  float* out = reinterpret_cast<float*>(cloud.data.data());
+  for (std::size_t i = 0; i < n; i += stride)
+  {
+    const Vec3& x = fluid.positions[i];
+    const Vec3& v = fluid.velocities[i];
+    out[0] = float(x.x());
+    out[1] = float(x.y());
+    out[2] = float(x.z());
+    out[3] = float(v.x());
+    out[4] = float(v.y());
+    out[5] = float(v.z());
+    out[6] = float(fluid.pressures[i]);
+    out[7] = float(fluid.densities[i]);
+    out[8] = float(v.norm());
+    out += kParticleFields;
+  }
+}
+
+void fillBoundaryCloud(const std::vector<Vec3>& positions, const std::vector<Real>& pressures,
+                       sensor_msgs::PointCloud2& cloud)
+{
+  const std::size_t n = positions.size();
+  setFields(cloud, {"x", "y", "z", "pressure"}, n);
+  float* out = reinterpret_cast<float*>(cloud.data.data());
+  for (std::size_t i = 0; i < n; ++i)
+  {
+    out[0] = float(positions[i].x());
+    out[1] = float(positions[i].y());
+    out[2] = float(positions[i].z());
+    out[3] = pressures.size() == n ? float(pressures[i]) : 0.0f;
+    out += 4;
+  }
+}
+
+geometry_msgs::Wrench toWrench(const Vec3d& force, const Vec3d& torque)
+{
+  geometry_msgs::Wrench w;
+  w.force.x = force.x();
+  w.force.y = force.y();
+  w.force.z = force.z();
+  w.torque.x = torque.x();
+  w.torque.y = torque.y();
+  w.torque.z = torque.z();
+  return w;
+}
+
+}  // namespace ros_bridge
+}  // namespace fluid_sim
