@@ -118,6 +118,7 @@ struct Frame
   bool boundary_valid = false;
   std::vector<Vec3> boundary;
   std::vector<Real> boundary_pressure;
+  std::vector<std::pair<std::size_t, std::size_t>> body_ranges;  // (first, count) per body
   fluid_msgs::ContactWrenchArray wrenches;
   fluid_msgs::SolverStats stats;
 };
@@ -192,6 +193,7 @@ struct FluidSimNode::Impl
   std::mutex frame_mutex;
   std::condition_variable frame_cv;
   Frame back, pending, front;
+  std::vector<std::pair<std::size_t, std::size_t>> body_ranges;  // boundary particles of each body
   bool frame_ready = false;
 
   Impl(ros::NodeHandle n, ros::NodeHandle p) : nh(n), pnh(p) {}
@@ -402,6 +404,12 @@ struct FluidSimNode::Impl
       links.push_back(lb);
     }
     const std::size_t nb = sim->numBodies();
+    body_ranges.clear();
+    for (std::size_t k = 0; k < nb; ++k)
+    {
+      const BodyInfo b = sim->body(k);
+      body_ranges.emplace_back(b.first_particle, b.num_particles);
+    }
     force_sum.assign(nb, Vec3d::Zero());
     torque_sum.assign(nb, Vec3d::Zero());
     max_p.assign(nb, 0.0);
@@ -818,6 +826,7 @@ struct FluidSimNode::Impl
     {
       f.boundary = sim->boundaryPositions();
       f.boundary_pressure = sim->boundaryPressures();
+      f.body_ranges = body_ranges;
       boundary_dirty = false;
     }
     f.wrenches.header.stamp = f.stamp;
@@ -853,6 +862,7 @@ struct FluidSimNode::Impl
       {
         std::swap(pending.boundary, back.boundary);
         std::swap(pending.boundary_pressure, back.boundary_pressure);
+        std::swap(pending.body_ranges, back.body_ranges);
         pending.boundary_valid = true;
       }
       back.boundary_valid = false;
@@ -900,7 +910,7 @@ struct FluidSimNode::Impl
         boost::shared_ptr<sensor_msgs::PointCloud2> cloud(new sensor_msgs::PointCloud2);
         cloud->header.stamp = f.stamp;
         cloud->header.frame_id = opt.fixed_frame;
-        fillBoundaryCloud(f.boundary, f.boundary_pressure, *cloud);
+        fillBoundaryCloud(f.boundary, f.boundary_pressure, f.body_ranges, *cloud);
         pub_boundary.publish(cloud);
       }
       pub_wrenches.publish(f.wrenches);

@@ -1,5 +1,6 @@
 #include "fluid_sim/ros/messages.h"
 
+#include <algorithm>
 #include <cstring>
 
 namespace fluid_sim
@@ -55,18 +56,24 @@ void fillParticleCloud(const FluidSnapshot& fluid, std::size_t max_points, senso
 }
 
 void fillBoundaryCloud(const std::vector<Vec3>& positions, const std::vector<Real>& pressures,
+                       const std::vector<std::pair<std::size_t, std::size_t>>& body_ranges,
                        sensor_msgs::PointCloud2& cloud)
 {
   const std::size_t n = positions.size();
-  setFields(cloud, {"x", "y", "z", "pressure"}, n);
+  setFields(cloud, {"x", "y", "z", "pressure", "body"}, n);
   float* out = reinterpret_cast<float*>(cloud.data.data());
-  for (std::size_t i = 0; i < n; ++i)
+  for (std::size_t k = 0; k < body_ranges.size(); ++k)
   {
-    out[0] = float(positions[i].x());
-    out[1] = float(positions[i].y());
-    out[2] = float(positions[i].z());
-    out[3] = pressures.size() == n ? float(pressures[i]) : 0.0f;
-    out += 4;
+    const std::size_t end = std::min(n, body_ranges[k].first + body_ranges[k].second);
+    for (std::size_t i = body_ranges[k].first; i < end; ++i)
+    {
+      float* p = out + 5 * i;
+      p[0] = float(positions[i].x());
+      p[1] = float(positions[i].y());
+      p[2] = float(positions[i].z());
+      p[3] = pressures.size() == n ? float(pressures[i]) : 0.0f;
+      p[4] = float(k);
+    }
   }
 }
 

@@ -2,6 +2,7 @@
 // Conversions from the simulation's arrays to ROS messages. Only this layer includes ROS headers.
 
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <geometry_msgs/Wrench.h>
@@ -32,9 +33,12 @@ constexpr int kParticleFields = 9;
 /// covers the whole fluid. Header is left to the caller.
 void fillParticleCloud(const FluidSnapshot& fluid, std::size_t max_points, sensor_msgs::PointCloud2& cloud);
 
-/// Fills `cloud` with boundary particles: float32 x y z (m) and pressure (Pa; 0 when the method
-/// keeps no boundary pressure, i.e. mirroring). `pressures` may be empty.
+/// Fills `cloud` with boundary particles: float32 x y z (m), pressure (Pa; 0 when the method
+/// keeps no boundary pressure, i.e. mirroring) and body (the body's index, in the order of
+/// contact_wrenches; a float so that rviz can colour by it). `pressures` may be empty;
+/// `body_ranges[k]` = (first particle, count) of body k.
 void fillBoundaryCloud(const std::vector<Vec3>& positions, const std::vector<Real>& pressures,
+                       const std::vector<std::pair<std::size_t, std::size_t>>& body_ranges,
                        sensor_msgs::PointCloud2& cloud);
 
 geometry_msgs::Wrench toWrench(const Vec3d& force, const Vec3d& torque);
