@@ -5,7 +5,8 @@
 #   bash scripts/setup.sh [extra cmake configure arguments, e.g. -DFLUID_SIM_NATIVE=OFF]
 #
 # Works as root or as a user with sudo, on a full machine or a minimal Debian 12
-# (debootstrap --variant=minbase). Set FLUID_SIM_SKIP_APT=1 to skip the package step.
+# (debootstrap --variant=minbase). Set FLUID_SIM_SKIP_APT=1 to skip the package step;
+# FLUID_SIM_WITH_RVIZ=1 adds rviz (added anyway when DISPLAY is set).
 set -euo pipefail
 
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -26,8 +27,16 @@ PACKAGES=(
   liburdfdom-dev libassimp-dev libeigen3-dev libtbb-dev libgtest-dev libyaml-cpp-dev
   python3-roslaunch python3-rostopic python3-rosnode python3-rosparam python3-rosmsg
   python3-rostest rosbash
+  libnodeletlib-dev libnodeletlib-tools libnodelet-dev python3-nodelet pluginlib-dev
+  libdynamic-reconfigure-config-init-mutex-dev python3-dynamic-reconfigure
+  libstd-srvs-dev ros-std-srvs python3-std-srvs
   libcli11-dev nlohmann-json3-dev libbenchmark-dev clang-format python3-matplotlib
 )
+
+# rviz (launch/demo.launch rviz:=true) only where there is a display to show it, or when asked.
+if [[ -n "${DISPLAY:-}" || "${FLUID_SIM_WITH_RVIZ:-0}" == 1 ]]; then
+  PACKAGES+=(rviz libgl1-mesa-dri)
+fi
 
 log() { printf '[setup] %s\n' "$*"; }
 

@@ -10,19 +10,16 @@ set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$ROOT"
 
-export PYENV_VERSION=system  # rostest's helpers run `#!/usr/bin/env python3`
-export ROS_HOSTNAME="${ROS_HOSTNAME:-localhost}"
 jobs="$(nproc 2> /dev/null || echo 2)"
 total_start=$SECONDS
 
 log() { printf '[test] %s\n' "$*"; }
 
-if ! getent hosts "$ROS_HOSTNAME" > /dev/null 2>&1; then
-  log "warning: ROS_HOSTNAME '$ROS_HOSTNAME' does not resolve (no /etc/hosts?): ROS tests cannot reach their master"
-fi
-
 # ---------------------------------------------------------------- float, with ROS (build/)
 bash scripts/setup.sh
+# rostest's helpers run `#!/usr/bin/env python3`; ROS needs a host name or address it can reach.
+# shellcheck source=ros_env.sh
+source scripts/ros_env.sh
 if grep -q '^FLUID_SIM_BUILD_ROS:BOOL=ON' build/CMakeCache.txt; then
   # catkin's test targets (catkin_add_gtest, rostest dependencies) are not part of `all`.
   cmake --build build --target tests -j"$jobs"
