@@ -14,6 +14,7 @@
 #include <thread>
 #include <vector>
 
+#include <dynamic_reconfigure/Reconfigure.h>
 #include <geometry_msgs/TransformStamped.h>
 #include <geometry_msgs/WrenchStamped.h>
 #include <gtest/gtest.h>
@@ -195,6 +196,41 @@ TEST(Tank, FloorWrenchEqualsTheWaterWeight)
   ASSERT_TRUE(single);
   EXPECT_EQ(single->header.frame_id, "tank");
   EXPECT_LT(single->wrench.force.z, -0.5 * weight);
+}
+
+TEST(Tank, DynamicReconfigureStartsFromTheSceneAndChangesTheSolver)
+{
+  // The server publishes the scene's values (tank_scene.yaml: min_iterations 3), not the .cfg
+  // defaults (2).
+  int min_iterations = 0;
+  ASSERT_TRUE(ros::service::waitForService("/fluid_sim/set_parameters", 10000));
+  ros::WallDuration(0.5).sleep();
+  ASSERT_TRUE(ros::param::get("/fluid_sim/min_iterations", min_iterations));
+  EXPECT_EQ(min_iterations, 3);
+
+  dynamic_reconfigure::Reconfigure srv;
+  dynamic_reconfigure::IntParameter p;
+  p.name = "min_iterations";
+  p.value = 9;
+  srv.request.config.ints.push_back(p);
+  ASSERT_TRUE(ros::service::call("/fluid_sim/set_parameters", srv));
+  bool seen = false;
+  for (int k = 0; k < 20 && !seen; ++k)
+  {
+    auto stats = waitFor<fluid_msgs::SolverStats>("/fluid_sim/stats", 5.0);
+    ASSERT_TRUE(stats);
+    seen = stats->density_iterations >= 9;
+  }
+  EXPECT_TRUE(seen) << "min_iterations 9 never showed in the stats";
+
+  // Back to the scene's value; the solver runs on.
+  srv.request.config.ints.clear();
+  p.value = 3;
+  srv.request.config.ints.push_back(p);
+  ASSERT_TRUE(ros::service::call("/fluid_sim/set_parameters", srv));
+  auto stats = waitFor<fluid_msgs::SolverStats>("/fluid_sim/stats", 5.0);
+  ASSERT_TRUE(stats);
+  EXPECT_EQ(stats->status, "ok");
 }
 
 TEST(Tank, PauseStepAndResetDoWhatTheySay)
