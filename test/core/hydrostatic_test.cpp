@@ -150,7 +150,11 @@ TEST_P(Buoyancy, SubmergedCubeFeelsArchimedesForce)
   scene.boundaries.push_back(cube);
   Simulation sim(scene);
   EXPECT_EQ(sim.removedAtStart(), 343u);  // the 7^3 lattice points inside the cube
-  const Averages avg = settleAndAverage(sim, 0.6, 0.4, width * width - side * side);
+  // Settle 1.2 s: until about 1.2 s the force still drifts by a few percent as the water
+  // around the cube rearranges (mls: 1.05 in 0.6-1.0 s, then a plateau of 1.034-1.038 from 1.4 s
+  // to 3 s; sph: 1.00, then 0.960-0.970), and where in that drift a 0.4 s window falls depended
+  // on the CPU's floating-point path.
+  const Averages avg = settleAndAverage(sim, 1.2, 0.4, width * width - side * side);
   const double archimedes = 1000.0 * kG * side * side * side;
   EXPECT_NEAR(avg.body_force.z() / archimedes, 1.0, 0.05) << toString(GetParam()) << ": " << avg.body_force.transpose();
   EXPECT_NEAR(avg.body_force.x() / archimedes, 0.0, 0.05);
