@@ -72,8 +72,19 @@ install_missing() {
   "${sudo[@]}" env DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends "${missing[@]}"
 }
 
+# ROS (roslaunch, rostest, the master) resolves `localhost`. A bare system made with debootstrap
+# has no /etc/hosts at all; add the standard loopback lines that any installed Debian has.
+ensure_localhost() {
+  getent hosts localhost > /dev/null 2>&1 && return
+  local sudo=()
+  ((EUID == 0)) || sudo=(sudo)
+  log "localhost does not resolve (no entry in /etc/hosts): adding the standard loopback lines, which ROS needs"
+  printf '127.0.0.1\tlocalhost\n::1\tlocalhost ip6-localhost ip6-loopback\n' | "${sudo[@]}" tee -a /etc/hosts > /dev/null
+}
+
 if [[ "${FLUID_SIM_SKIP_APT:-0}" != 1 ]]; then
   start=$SECONDS
+  ensure_localhost
   install_missing
   log "packages: $((SECONDS - start)) s"
 fi
