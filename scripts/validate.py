@@ -45,7 +45,15 @@ COLORS = {"mirroring": "tab:red", "sph": "tab:blue", "mls": "tab:green"}
 RHO0 = 1000.0
 # Checks whose failure is a documented known problem (docs/method_notes.md, docs/validation.md):
 # reported in the report, not counted by --check.
-KNOWN = {}
+KNOWN = {
+    (6, "drum", "mls"): "MLS has no stable dt on the drum (the paper reports the opposite); likely the unbounded "
+                        "MLS extrapolation from sparse, one-sided neighbourhoods (docs/validation.md)",
+    (6, "deep", "mirroring"): "mirroring blows up in the deep column's start at every dt (known mirroring problem)",
+    (2, "mls"): "not reproduced: the turning wall spins the water up with MLS too, at about 60 % of SPH's rate "
+                "(docs/validation.md, case 2)",
+    (3, "mirroring"): "mirroring does not come to rest and reads ~15 % high (docs/method_notes.md); in the deep "
+                      "column it blows up at 1 cm",
+}
 G = 9.81
 
 
@@ -128,14 +136,15 @@ class Suite:
         self.quick = opts.quick
         self.work = os.path.abspath(opts.work)
         self.outdir = os.path.abspath(opts.out_dir)
-        self.checks = []  # (case, name, passed, detail)
+        self.checks = []  # (case, name, passed, detail, known)
+        self.memo = {}
         self.lock = threading.Lock()
         self.pool = concurrent.futures.ThreadPoolExecutor(max_workers=opts.jobs)
         os.makedirs(self.work, exist_ok=True)
         os.makedirs(self.outdir, exist_ok=True)
 
     # -- running -------------------------------------------------------------------------------
-    def _run(self, key, scene, sets, duration):
+    def _run_raw(self, key, scene, sets, duration):
         out = os.path.join(self.work, key)
         args = [self.runner, os.path.join(SCENES, scene), "--out", out, "--threads", str(self.opts.threads)]
         if duration is not None:
@@ -160,6 +169,25 @@ class Suite:
         run = Run(out, rc, args, wall)
         with self.lock:
             print("  %-58s %-9s %6.1f s" % (key, run.status, wall), flush=True)
+        return run
+
+    def _run_once(self, key, scene, sets, duration):
+        """A run asked for twice in one invocation (cases 4 and 5 share the dam breaks) runs once."""
+        with self.lock:
+            fut = self.memo.get(key)
+            if fut is None:
+                fut = self.memo[key] = concurrent.futures.Future()
+                mine = True
+            else:
+                mine = False
+        if not mine:
+            return fut.result()
+        try:
+            run = self._run_raw(key, scene, sets, duration)
+        except BaseException as e:
+            fut.set_exception(e)
+            raise
+        fut.set_result(run)
         return run
 
     def run(self, key, scene, sets=None, duration=None):
@@ -296,10 +324,11 @@ def case1(S):
         table.append(["%g" % dt] + [("%.2f" % r["iters"]) + ("" if r["status"] == "ok" else " (unstable at %.2f s)" % r["t_end"]) for r in rr]
                      + ["%.1f / %.1f / %.1f" % paper if paper else "-"]
                      + [" / ".join("%.1f" % r["ms_step"] for r in rr)]
-                     + [" / ".join("%.3f" % (100 * r["err_mean"]) for r in rr)]
-                     + [" / ".join("%.3f" % (100 * r["err_max"]) for r in rr)]
-                     + [" / ".join("%.1f" % (100 * r["err_particle_max"]) for r in rr)]
-                     + [" / ".join("%.2f" % r["cfl"] for r in rr)])
+                     + [" / ".join("%.3f" % (100 * r["err_mean"]) if r["status"] == "ok" else "(unstable)" for r in rr)]
+                     + [" / ".join("%.3f" % (100 * r["err_max"]) if r["status"] == "ok" else "(unstable)" for r in rr)]
+                     + [" / ".join("%.1f" % (100 * r["err_particle_max"]) if r["status"] == "ok" else "(unstable)"
+                                   for r in rr)]
+                     + [" / ".join("%.2f" % r["cfl"] if r["status"] == "ok" else "(unstable)" for r in rr)])
     n_f, n_b = rows[0]["fluid"], rows[0]["boundary"]
     # Diagnostics (full suite only): MLS with its own fit settings changed, to locate its
     # instability. These settings exist only for MLS, so they are not a per-method tuning of the
@@ -353,20 +382,21 @@ def case1(S):
 # ----------------------------------------------------------------------------------------------
 # Case 2: rotating sphere
 # ----------------------------------------------------------------------------------------------
-def sphere_series(run, omega):
+def rotation_series(run, omega, axis):
+    """Per frame: time, mean and max speed, kinetic energy, and the fluid's angular momentum about
+    the axis (through the origin; axis 1 = y, 2 = z) divided by that of solid-body rotation at omega."""
+    a, b = {1: (2, 0), 2: (0, 1)}[axis]  # L = x_a v_b - x_b v_a
     rows = []
-    mass = None
     for fpath in run.frames():
         d = read_ply(fpath)
-        idx = int(os.path.basename(fpath)[:6])
-        t = idx * 0.05
+        t = int(os.path.basename(fpath)[:6]) * 0.05
         x, v = d[:, 0:3], d[:, 3:6]
         mass = RHO0 * run.summary["spacing"] ** 3
         speed = np.linalg.norm(v, axis=1)
         ke = 0.5 * mass * float(np.sum(speed ** 2))
-        ly = float(np.sum(x[:, 2] * v[:, 0] - x[:, 0] * v[:, 2]))
-        iy = float(np.sum(x[:, 0] ** 2 + x[:, 2] ** 2))
-        frac = ly / (omega * iy) if iy > 0 else float("nan")
+        lz = float(np.sum(x[:, a] * v[:, b] - x[:, b] * v[:, a]))
+        iz = float(np.sum(x[:, a] ** 2 + x[:, b] ** 2))
+        frac = lz / (omega * iz) if iz > 0 else float("nan")
         rows.append((t, float(np.mean(speed)), float(np.max(speed)), ke, frac))
     return np.array(rows)
 
@@ -380,100 +410,113 @@ def drag_rate(series, t_from):
     return float(np.polyfit(series[sel, 0], series[sel, 4], 1)[0])
 
 
+GEOMETRIES = {
+    # name: scene, axis index, radius (m), label
+    "sphere": ("rotating_sphere.yaml", 1, 0.3, "sphere (radius 0.3 m, half full, turning about the horizontal y axis)"),
+    "cylinder": ("rotating_cylinder.yaml", 2, 0.2,
+                 "cylinder (radius 0.2 m, water 0.15 m deep, turning about its vertical axis)"),
+}
+
+
 def case2(S):
     omega = 0.733
     if S.quick:
-        spacing, duration = 0.03, 1.5
+        plan = [("cylinder", 0.02, 2.0)]
     else:
-        spacing, duration = 0.02, 4.0
-    # Each method also runs a control with the sphere at rest: the water's own start-up sloshing,
-    # against which the drag of the turning wall is measured.
-    specs = [("case2/%s" % m, "rotating_sphere.yaml", {"solver.boundary_pressure": m, "spacing": spacing}, duration)
-             for m in METHODS]
-    specs += [("case2/%s_control" % m, "rotating_sphere.yaml", {"solver.boundary_pressure": m, "spacing": spacing,
-                                                                 "boundaries[0].motion.angular_velocity": "[0,0,0]"},
-               duration) for m in METHODS]
-    allruns = S.run_all(specs)
-    runs = dict(zip(METHODS, allruns[:3]))
-    controls = dict(zip(METHODS, allruns[3:]))
-    series = {m: sphere_series(runs[m], omega) for m in METHODS}
-    cseries = {m: sphere_series(controls[m], omega) for m in METHODS}
-    rows = []
-    for m in METHODS:
-        for r in series[m]:
-            rows.append([m] + [float(x) for x in r])
-    for m in METHODS:
-        for r in cseries[m]:
-            rows.append([m + " (sphere at rest)"] + [float(x) for x in r])
-    S.write_csv("case2_rotating_sphere.csv", ["method", "t", "mean_speed", "max_speed", "kinetic_energy",
-                                               "rotation_fraction"], rows)
-    fig, ax = plt.subplots(1, 3, figsize=(13, 3.8))
-    for m in METHODS:
-        s = series[m]
-        ax[0].plot(s[:, 0], 1000 * s[:, 1], color=COLORS[m], label=m)
-        ax[1].semilogy(s[:, 0], s[:, 3], color=COLORS[m], label=m)
-        ax[2].plot(s[:, 0], 100 * s[:, 4], color=COLORS[m], label=m)
-        c = cseries[m]
-        ax[0].plot(c[:, 0], 1000 * c[:, 1], ":", color=COLORS[m], lw=1)
-        ax[1].semilogy(c[:, 0], c[:, 3], ":", color=COLORS[m], lw=1)
-        ax[2].plot(c[:, 0], 100 * c[:, 4], ":", color=COLORS[m], lw=1, label=m + ", sphere at rest")
-    ax[0].set_ylabel("mean speed (mm/s)")
-    ax[1].set_ylabel("kinetic energy (J)")
-    ax[2].set_ylabel("fluid rotation / solid-body rotation (%)")
-    for a in ax:
-        a.set_xlabel("t (s)")
-        a.legend(fontsize=8)
-    ax[0].set_title("sphere wall speed %.0f mm/s" % (1000 * omega * 0.3))
-    S.savefig(fig, "case2_rotating_sphere.png")
-
-    late = {}
-    for m in METHODS:
-        s = series[m]
-        c = cseries[m]
-        sel = s[:, 0] >= duration - 1.0 - 1e-9
-        csel = c[:, 0] >= duration - 1.0 - 1e-9
-        late[m] = dict(mean_speed=float(np.mean(s[sel, 1])), max_speed=float(np.max(s[sel, 2])),
-                       ke=float(np.mean(s[sel, 3])), frac=float(np.mean(s[sel, 4])), frac_end=float(s[-1, 4]),
-                       drag=drag_rate(s, 1.0), c_drag=drag_rate(c, 1.0),
-                       c_mean_speed=float(np.mean(c[csel, 1])), c_frac=float(np.mean(c[csel, 4])),
-                       c_frac_absmax=float(np.max(np.abs(c[csel, 4]))), c_status=controls[m].status,
-                       status=runs[m].status, iters=runs[m].summary.get("mean_density_iterations", float("nan")),
-                       err=runs[m].summary.get("mean_density_error", float("nan")),
-                       n=runs[m].summary.get("fluid_particles", {}).get("initial", 0),
-                       nb=runs[m].summary.get("boundary_particles", 0))
-    # checks: MLS leaves the water (nearly) at rest: rotation picked up below 2 % of solid-body rotation,
-    # and it drags less than either other method (the paper's claim).
-    S.check(2, "mls rotation fraction < 2 % (last 1 s)", abs(late["mls"]["frac"]) < 0.02,
-            "%.2f %%" % (100 * late["mls"]["frac"]))
-    for m in ("mirroring", "sph"):
-        S.check(2, "mls drags the water less than %s" % m, abs(late["mls"]["frac"]) < abs(late[m]["frac"]),
-                "mls %.2f %%, %s %.2f %%" % (100 * late["mls"]["frac"], m, 100 * late[m]["frac"]))
-    md = ["## 2. Rotating sphere at rest (paper Sec. 5.1)\n"]
-    md.append("Scale: sphere radius 0.3 m (paper: 3 m) turning at 7 rpm (0.733 rad/s, wall speed %.0f mm/s) "
-              "about the horizontal y axis; spacing %g m (%d fluid, %d boundary particles; paper 417 k fluid); "
-              "dt 1 ms, exactly 10 density iterations, no divergence solve (the paper's settings), no viscosity; "
-              "%g s simulated. The water starts on a lattice in the lower half, so it first settles. "
-              "'Rotation' is the fluid's angular momentum about the axis divided by that of a solid body "
-              "turning with the sphere (0 %%: the water stays at rest, as it should in a free-slip sphere; "
-              "100 %%: dragged along completely). The sloshing makes it oscillate; the spin-up rate is the slope of a "
-              "straight line fitted to it from t = 1 s on (%%/s), and the control runs (the same, with the sphere at "
-              "rest) show how much of it is sloshing alone.\n" % (1000 * omega * 0.3, spacing, late["mls"]["n"],
-                                                          late["mls"]["nb"], duration))
-    md.append(md_table(["method", "status", "mean speed (mm/s)", "max speed (mm/s)", "kinetic energy (mJ)",
-                        "rotation (mean, last 1 s)", "rotation at end", "density error %",
-                        "spin-up rate (%/s)", "control, sphere at rest: mean speed (mm/s)",
-                        "control: rotation (mean / largest |.|)", "control: spin-up rate (%/s)"],
-                       [[m, late[m]["status"], f3(1000 * late[m]["mean_speed"]), f3(1000 * late[m]["max_speed"]),
-                         f3(1000 * late[m]["ke"]), "%.2f %%" % (100 * late[m]["frac"]),
-                         "%.2f %%" % (100 * late[m]["frac_end"]), f3(100 * late[m]["err"]),
-                         "%+.2f" % (100 * late[m]["drag"]), f3(1000 * late[m]["c_mean_speed"]),
-                         "%.2f %% / %.2f %%" % (100 * late[m]["c_frac"], 100 * late[m]["c_frac_absmax"]),
-                         "%+.2f" % (100 * late[m]["c_drag"])]
-                        for m in METHODS]))
-    md.append("(mean speed and kinetic energy averaged over the frames of the last second, max speed the largest "
-              "over them.)\n\n![rotating sphere](%s)\n\nCSV: [case2_rotating_sphere.csv](%s).\n"
-              % (S.rel("case2_rotating_sphere.png"), S.rel("case2_rotating_sphere.csv")))
-    return {"late": late, "md": "\n".join(md)}
+        plan = [("sphere", 0.02, 4.0), ("cylinder", 0.02, 3.0)]
+    md = ["## 2. Rotating container at rest (paper Sec. 5.1)\n"]
+    md.append("Water at rest in a free-slip container turning at 7 rpm (0.733 rad/s): the wall slides along the water "
+              "and should not move it. Paper: sphere of radius 3 m, spacing 5 cm (60 spacings), 417 k particles; "
+              "mirroring and SPH extrapolation drag the water along, MLS leaves it at rest. Here, with the paper's "
+              "solver settings (dt 1 ms, exactly 10 density iterations, no divergence solve, no viscosity) and the "
+              "same for all three methods: %s. The water starts on a lattice cut by the curved wall, so it first "
+              "sloshes (the paper's water starts at rest). 'Rotation' is the water's angular momentum about the "
+              "turning axis divided by that of a solid body turning with the container (0 %%: at rest, as it should "
+              "be; 100 %%: dragged along completely); the spin-up rate is the slope of a straight line fitted to it "
+              "from t = 1 s on (%%/s). Each method also runs a control with the container at rest: what the "
+              "sloshing alone does to the same measures. In the cylinder, gravity is along the axis and the start "
+              "is mirror-symmetric, so the control has no reason to turn and any rotation of the turning run is "
+              "drag by the wall.\n" % "; ".join(
+                  "%s, spacing %g m, %g s" % (GEOMETRIES[g][3], sp, du) for g, sp, du in plan))
+    out = {}
+    for geo, spacing, duration in plan:
+        scene, axis, radius, label = GEOMETRIES[geo]
+        rest = "[0,0,0]"
+        specs = [("case2/%s_%s" % (geo, m), scene, {"solver.boundary_pressure": m, "spacing": spacing}, duration)
+                 for m in METHODS]
+        specs += [("case2/%s_%s_control" % (geo, m), scene, {"solver.boundary_pressure": m, "spacing": spacing,
+                                                              "boundaries[0].motion.angular_velocity": rest},
+                   duration) for m in METHODS]
+        allruns = S.run_all(specs)
+        runs = dict(zip(METHODS, allruns[:3]))
+        controls = dict(zip(METHODS, allruns[3:]))
+        series = {m: rotation_series(runs[m], omega, axis) for m in METHODS}
+        cseries = {m: rotation_series(controls[m], omega, axis) for m in METHODS}
+        rows = []
+        for m in METHODS:
+            rows += [[m] + [float(x) for x in r] for r in series[m]]
+            rows += [[m + " (at rest)"] + [float(x) for x in r] for r in cseries[m]]
+        S.write_csv("case2_%s.csv" % geo, ["method", "t", "mean_speed", "max_speed", "kinetic_energy",
+                                           "rotation_fraction"], rows)
+        fig, ax = plt.subplots(1, 3, figsize=(13, 3.8))
+        for m in METHODS:
+            sr, c = series[m], cseries[m]
+            ax[0].plot(sr[:, 0], 1000 * sr[:, 1], color=COLORS[m], label=m)
+            ax[1].semilogy(sr[:, 0], sr[:, 3], color=COLORS[m], label=m)
+            ax[2].plot(sr[:, 0], 100 * sr[:, 4], color=COLORS[m], label=m)
+            ax[0].plot(c[:, 0], 1000 * c[:, 1], ":", color=COLORS[m], lw=1)
+            ax[1].semilogy(c[:, 0], c[:, 3], ":", color=COLORS[m], lw=1)
+            ax[2].plot(c[:, 0], 100 * c[:, 4], ":", color=COLORS[m], lw=1, label=m + ", at rest")
+        ax[0].set_ylabel("mean speed (mm/s)")
+        ax[1].set_ylabel("kinetic energy (J)")
+        ax[2].set_ylabel("rotation / solid-body rotation (%)")
+        for a_ in ax:
+            a_.set_xlabel("t (s)")
+            a_.legend(fontsize=7)
+        ax[0].set_title("%s, wall speed %.0f mm/s (dotted: at rest)" % (geo, 1000 * omega * radius), fontsize=9)
+        S.savefig(fig, "case2_%s.png" % geo)
+        late = {}
+        for m in METHODS:
+            sr, c = series[m], cseries[m]
+            sel = sr[:, 0] >= duration - 1.0 - 1e-9
+            csel = c[:, 0] >= duration - 1.0 - 1e-9
+            late[m] = dict(mean_speed=float(np.mean(sr[sel, 1])), max_speed=float(np.max(sr[sel, 2])),
+                           ke=float(np.mean(sr[sel, 3])), frac=float(np.mean(sr[sel, 4])), frac_end=float(sr[-1, 4]),
+                           drag=drag_rate(sr, 1.0), c_drag=drag_rate(c, 1.0),
+                           c_mean_speed=float(np.mean(c[csel, 1])), c_frac=float(np.mean(c[csel, 4])),
+                           c_frac_absmax=float(np.max(np.abs(c[:, 4]))), status=runs[m].status,
+                           c_status=controls[m].status,
+                           err=runs[m].summary.get("mean_density_error", float("nan")),
+                           n=runs[m].summary.get("fluid_particles", {}).get("initial", 0),
+                           nb=runs[m].summary.get("boundary_particles", 0))
+        out[geo] = late
+        md.append("### %s: %d fluid, %d boundary particles, %g s\n" % (geo, late["mls"]["n"], late["mls"]["nb"],
+                                                                      duration))
+        md.append(md_table(["method", "status", "mean speed (mm/s)", "kinetic energy (mJ)", "rotation (mean, last 1 s)",
+                            "rotation at end", "spin-up rate (%/s)", "at rest: mean speed (mm/s)",
+                            "at rest: largest abs. rotation", "at rest: spin-up rate (%/s)"],
+                           [[m, late[m]["status"], f3(1000 * late[m]["mean_speed"]), f3(1000 * late[m]["ke"]),
+                             "%.2f %%" % (100 * late[m]["frac"]), "%.2f %%" % (100 * late[m]["frac_end"]),
+                             "%+.2f" % (100 * late[m]["drag"]), f3(1000 * late[m]["c_mean_speed"]),
+                             "%.2f %%" % (100 * late[m]["c_frac_absmax"]), "%+.2f" % (100 * late[m]["c_drag"])]
+                            for m in METHODS]))
+        md.append("\n(mean speed, kinetic energy and rotation averaged over the frames of the last second.)\n\n"
+                  "![%s](%s)\n\nCSV: [case2_%s.csv](%s).\n" % (geo, S.rel("case2_%s.png" % geo), geo,
+                                                              S.rel("case2_%s.csv" % geo)))
+        if geo == "cylinder":
+            # Checks (the paper's claims, in the cylinder, where the control shows the noise floor:
+            # a rotation of a few per cent from the sloshing alone): MLS drags the water less than
+            # SPH extrapolation does; MLS leaves the water at rest (spin-up below 1 %/s).
+            S.check(2, "cylinder turning: mls spins the water up less than sph",
+                    late["mls"]["drag"] < late["sph"]["drag"], "mls %+.2f %%/s, sph %+.2f %%/s (mirroring %+.2f; at "
+                    "rest: largest abs. rotation %.1f / %.1f / %.1f %%)" % (
+                        100 * late["mls"]["drag"], 100 * late["sph"]["drag"], 100 * late["mirroring"]["drag"],
+                        100 * late["mls"]["c_frac_absmax"], 100 * late["sph"]["c_frac_absmax"],
+                        100 * late["mirroring"]["c_frac_absmax"]))
+            S.check(2, "cylinder turning, mls: spin-up below 1 %/s (paper: MLS leaves the water at rest)",
+                    abs(late["mls"]["drag"]) < 0.01, "%+.2f %%/s" % (100 * late["mls"]["drag"]),
+                    known=KNOWN.get((2, "mls")))
+    return {"late": out, "md": "\n".join(md)}
 
 
 # ----------------------------------------------------------------------------------------------
@@ -515,7 +558,10 @@ def hydrostatic(run, depth, t_from):
         if np.any(m):
             centres.append(0.5 * (a + b))
             means.append(float(np.mean(p[m])))
-    return dict(slope=slope, rms=rms, profile=(np.array(centres), np.array(means)))
+    centres, means = np.array(centres), np.array(means)
+    inner = centres > 2 * s
+    prof = float(np.sqrt(np.mean((means[inner] - RHO0 * G * centres[inner]) ** 2)) / (RHO0 * G * depth))
+    return dict(slope=slope, rms=rms, profile=(centres, means), profile_err=prof)
 
 
 def deep_metrics(run, depth, spacing):
@@ -525,28 +571,34 @@ def deep_metrics(run, depth, spacing):
     res = dict(status=run.status, n=n, nb=s.get("boundary_particles", 0),
                iters=s.get("mean_density_iterations", float("nan")), ms_step=s.get("ms_per_step", float("nan")),
                err=s.get("mean_density_error", float("nan")), sec_per_s=run.sec_per_sim_s(),
-               force_ratio=float("nan"), slope=float("nan"), rms=float("nan"), profile=None)
+               force_ratio=float("nan"), slope=float("nan"), rms=float("nan"), profile=None,
+               profile_err=float("nan"))
     if run.ok:
         res["force_ratio"] = float(-run.body_force("shaft")[2] / weight)
         h = hydrostatic(run, depth, 0.5 * s["simulated_time_s"])
         if h:
-            res.update(slope=h["slope"], rms=h["rms"], profile=h["profile"])
+            res.update(slope=h["slope"], rms=h["rms"], profile=h["profile"], profile_err=h["profile_err"])
     return res
 
 
 def case3(S):
+    # Quick: 2 cm (50 deep) with the solver converged to 0.01 %: at 0.1 % the mean-error stopping
+    # rule leaves pressure errors of several per cent in a deep column (see case 5), which a check
+    # at 5 % would only see by chance.
     if S.quick:
-        spacing, depth, duration = 0.02, 1.0, 1.0
+        spacing, depth, duration, tol = 0.02, 1.0, 0.8, 0.0001
     else:
-        spacing, depth, duration = 0.01, 1.0, 1.0
-    specs = [("case3/%s_s%g_tol0.001" % (m, spacing), "deep_column.yaml", deep_sets(spacing, depth, m, 0.001), duration)
+        spacing, depth, duration, tol = 0.01, 1.0, 1.0, 0.001
+    specs = [("case3/%s_s%g_tol%g" % (m, spacing, tol), "deep_column.yaml", deep_sets(spacing, depth, m, tol), duration)
              for m in METHODS]
     runs = dict(zip(METHODS, S.run_all(specs)))
     res = {m: deep_metrics(runs[m], depth, spacing) for m in METHODS}
     S.write_csv("case3_deep_column.csv", ["method", "status", "fluid_particles", "floor_force_over_weight",
-                                           "pressure_slope_over_rho0_g", "rms_pressure_error_over_rho0_g_depth",
+                                           "pressure_slope_over_rho0_g", "profile_error_over_rho0_g_depth",
+                                           "particle_rms_pressure_error_over_rho0_g_depth",
                                            "density_iterations", "ms_per_step", "mean_density_error"],
-                [[m, res[m]["status"], res[m]["n"], res[m]["force_ratio"], res[m]["slope"], res[m]["rms"],
+                [[m, res[m]["status"], res[m]["n"], res[m]["force_ratio"], res[m]["slope"], res[m]["profile_err"],
+                  res[m]["rms"],
                   res[m]["iters"], res[m]["ms_step"], res[m]["err"]] for m in METHODS])
     prof_rows = []
     fig, ax = plt.subplots(1, 2, figsize=(10, 4.2))
@@ -571,24 +623,27 @@ def case3(S):
 
     for m in METHODS:
         S.check(3, "%s floor force = weight within 3 %%" % m, abs(res[m]["force_ratio"] - 1) < 0.03,
-                "F/W = %.4f" % res[m]["force_ratio"])
-    for m in ("sph", "mls"):
+                "F/W = %.4f" % res[m]["force_ratio"], known=KNOWN.get((3, m)))
         S.check(3, "%s pressure slope = rho0 g within 5 %%" % m, abs(res[m]["slope"] - 1) < 0.05,
-                "slope/(rho0 g) = %.4f" % res[m]["slope"])
+                "slope/(rho0 g) = %.4f" % res[m]["slope"], known=KNOWN.get((3, m)))
     md = ["## 3. Deep water (the point of the paper's vase, Sec. 5.3)\n"]
     md.append("Scale: a column %g m deep (%d particles deep) in a free-slip shaft %g m wide, spacing %g m, %d fluid "
               "and %d boundary particles (paper's vase: 10 m, up to 13.3 M particles); dt 1 ms fixed, density "
-              "tolerance 0.1 %%, at most 200 iterations, XSPH 0.01; %g s simulated. Pressure: the runner's "
+              "tolerance %g %%, at most 200 iterations, XSPH 0.01; %g s simulated. Pressure: the runner's "
               "reported pressure (divergence + density solve) averaged over the frames of the second half. "
-              "Floor force: the shaft's vertical force averaged over the last 10 %% of the run.\n"
+              "Floor force: the shaft's vertical force averaged over the last 10 %% of the run. Pressure slope: least "
+              "squares of p against rho0 g d through the origin over all particle samples deeper than 2 spacings; "
+              "profile error: rms over 5 cm depth bins of (mean p - rho0 g d) / (rho0 g H); particle rms error: the "
+              "same over single particles (includes the particle-to-particle pressure noise).\n"
               % (depth, round(depth / spacing), float(deep_sets(spacing, depth, "mls", 0.001)["fluid[0].box.max"]
                                                       .strip("[]").split(",")[0]),
-                 spacing, res["mls"]["n"], res["mls"]["nb"], duration))
+                 spacing, res["mls"]["n"], res["mls"]["nb"], 100 * tol, duration))
     md.append(md_table(["method", "status", "floor force / weight", "pressure slope / (rho0 g)",
-                        "rms (p - rho0 g d) / (rho0 g H)", "density iterations / step", "ms / step",
+                        "profile error", "particle rms error", "density iterations / step", "ms / step",
                         "mean density error %"],
                        [[m, res[m]["status"], f3(res[m]["force_ratio"], 4), f3(res[m]["slope"], 4),
-                         "%.2f %%" % (100 * res[m]["rms"]), f3(res[m]["iters"]), f3(res[m]["ms_step"]),
+                         "%.2f %%" % (100 * res[m]["profile_err"]), "%.2f %%" % (100 * res[m]["rms"]),
+                         f3(res[m]["iters"]), f3(res[m]["ms_step"]),
                          f3(100 * res[m]["err"])] for m in METHODS]))
     md.append("\n![deep column](%s)\n\nCSV: [case3_deep_column.csv](%s), [case3_pressure_profile.csv](%s).\n"
               % (S.rel("case3_deep_column.png"), S.rel("case3_deep_column.csv"), S.rel("case3_pressure_profile.csv")))
@@ -792,11 +847,12 @@ def case5(S):
     methods = ["mls"] if S.quick else METHODS
     front_mm, height_mm = mm_data()
     if S.quick:
-        deep_spac, deep_dur = [0.02], 1.0
+        deep_spac, deep_dur = [0.02], 0.6
     else:
         deep_spac, deep_dur = [0.02, 0.014, 0.01], 1.0
     dam_keys = [(m, s, t) for s in dspac for t in tols for m in methods]
-    deep_keys = [(m, s, t) for s in deep_spac for t in tols for m in methods]
+    deep_tols = [0.01, 0.001] if S.quick else tols
+    deep_keys = [(m, s, t) for s in deep_spac for t in deep_tols for m in methods]
     futs = {}
     for m, s, t in dam_keys:
         futs[("dam", m, s, t)] = S.submit("case45/dam_%s_s%g_tol%g" % (m, s, t), "dam_break.yaml", dam_sets(s, m, t), 0.3)
@@ -812,22 +868,26 @@ def case5(S):
                    fluid=s_.get("fluid_particles", {}).get("initial", 0), sec_per_s=r.sec_per_sim_s(),
                    iters=s_.get("mean_density_iterations", float("nan")),
                    density_err=s_.get("mean_density_error", float("nan")), front_err=float("nan"),
-                   height_err=float("nan"), pressure_err=float("nan"), slope_err=float("nan"), force_err=float("nan"))
+                   front_speed_err=float("nan"), height_err=float("nan"), pressure_err=float("nan"),
+                   particle_pressure_err=float("nan"), slope_err=float("nan"), force_err=float("nan"))
         if r.ok and kind == "dam":
             e = dam_errors(dam_series(r), front_mm, height_mm)
-            row.update(front_err=e["front"], height_err=e["height"])
+            row.update(front_err=e["front"], height_err=e["height"], front_speed_err=abs(e["front_speed_ratio"] - 1))
         if r.ok and kind == "deep":
             dm = deep_metrics(r, 1.0, s)
-            row.update(pressure_err=dm["rms"], slope_err=abs(dm["slope"] - 1), force_err=abs(dm["force_ratio"] - 1))
+            row.update(pressure_err=dm["profile_err"], particle_pressure_err=dm["rms"], slope_err=abs(dm["slope"] - 1),
+                       force_err=abs(dm["force_ratio"] - 1))
         rows.append(row)
     S.write_csv("case5_speed_error.csv", list(rows[0].keys()), [list(r.values()) for r in rows])
 
     panels = [("dam", "front_err", "dam break: front rms error vs experiment"),
-              ("dam", "density_err", "dam break: mean density error"),
-              ("deep", "pressure_err", "deep column: rms pressure error / (rho0 g H)"),
+              ("dam", "front_speed_err", "dam break: front speed error (ratio to experiment's - 1)"),
+              ("dam", "height_err", "dam break: column height rms error vs experiment"),
+              ("deep", "pressure_err", "deep column: pressure profile error / (rho0 g H)"),
+              ("deep", "force_err", "deep column: floor force error (force / weight - 1)"),
               ("deep", "density_err", "deep column: mean density error")]
     markers = {TOLS[0]: "v", TOLS[1]: "o", TOLS[2]: "^"}
-    fig, axs = plt.subplots(2, 2, figsize=(11, 8.5))
+    fig, axs = plt.subplots(2, 3, figsize=(15, 8.5))
     knees = {}
     for ax, (kind, col, title) in zip(axs.flat, panels):
         pts = []
@@ -859,12 +919,12 @@ def case5(S):
         for m in methods:
             for s in sp:
                 rr = {r["tolerance"]: r for r in rows if r["case"] == kind and r["method"] == m and r["spacing"] == s}
-                lo, hi = rr[max(tols)], rr[min(tols)]
+                lo, hi = rr[max(rr)], rr[min(rr)]
                 if lo["status"] != "ok" or hi["status"] != "ok":
                     S.check(5, "%s %s s=%g: runs stable" % (kind, m, s), False, "%s / %s" % (lo["status"], hi["status"]))
                     continue
-                S.check(5, "%s %s s=%g: tol %g -> %g lowers density error and costs more" % (kind, m, s, max(tols),
-                                                                                        min(tols)),
+                S.check(5, "%s %s s=%g: tol %g -> %g lowers density error and costs more" % (kind, m, s, max(rr),
+                                                                                        min(rr)),
                         hi["density_err"] < lo["density_err"] and hi["sec_per_s"] > lo["sec_per_s"],
                         "err %.3g -> %.3g, %.3g -> %.3g s/s" % (lo["density_err"], hi["density_err"], lo["sec_per_s"],
                                                                   hi["sec_per_s"]))
@@ -884,10 +944,13 @@ def case5(S):
     for r in sorted(rows, key=lambda r: (r["case"], r["spacing"], r["tolerance"], r["method"])):
         tab.append([r["case"], r["method"], "%g" % (1000 * r["spacing"]), "%g" % r["tolerance"], r["status"], r["fluid"],
                     f3(r["sec_per_s"]), f3(r["iters"]), f3(100 * r["density_err"]),
-                    "%.1f %%" % (100 * r["front_err"]) if r["case"] == "dam" else "%.2f %%" % (100 * r["pressure_err"])])
+                    "%.1f %% / %.1f %% / %.1f %%" % (100 * r["front_err"], 100 * r["front_speed_err"], 100 * r["height_err"])
+                    if r["case"] == "dam" else "%.2f %% / %.2f %% / %.2f %%" % (
+                        100 * r["pressure_err"], 100 * r["force_err"], 100 * r["particle_pressure_err"])])
     md.append("\n<details><summary>All runs</summary>\n\n" + md_table(
         ["case", "method", "spacing (mm)", "tolerance", "status", "fluid", "wall s / sim s", "iters/step",
-         "density err %", "front err (dam) / rms p err (deep)"], tab) + "\n</details>\n")
+         "density err %", "dam: front rms / front speed / height errors; deep: profile / floor force / particle "
+         "rms errors"], tab) + "\n</details>\n")
     md.append("\nCSV: [case5_speed_error.csv](%s).\n" % S.rel("case5_speed_error.csv"))
     return {"rows": rows, "knees": knees, "md": "\n".join(md)}
 
@@ -901,7 +964,8 @@ def stability_scenes(S):
         # name, scene, sets, duration, speed bound (m/s), label
         ("drum", "stability_drum.yaml", {}, 0.4 if q else 1.0, 2 * 1.71 + math.sqrt(2 * G * 0.48),
          "a) drum with holes at 10 rad/s in a tub (spacing 1 cm, %s s)" % (0.4 if q else 1.0)),
-        ("deep", "deep_column.yaml", deep_sets(0.02 if q else 0.01, 1.0, "mls", 0.001), 0.3 if q else 0.5,
+        ("deep", "deep_column.yaml", dict(deep_sets(0.02 if q else 0.01, 1.0, "mls", 0.001), **{"stability.max_cfl": 2.0}),
+         0.3 if q else 0.5,
          math.sqrt(2 * G * 1.2),
          "b) deep column 1 m (spacing %g cm, %s s)" % (2 if q else 1, 0.3 if q else 0.5)),
         ("cup", "stability_cup.yaml", {"output.frame_interval": 0.3 if q else 0.1}, 0.3, 2 * 0.6 + math.sqrt(2 * G * 0.12),
@@ -979,7 +1043,7 @@ def ladder_search(S, name, scene, sets, duration, vbound, method, ladder, refine
 
 
 def case6(S):
-    ladder = [0.25, 0.5, 1.0, 2.0, 4.0, 8.0] if S.quick else [0.125, 0.25, 0.5, 1.0, 2.0, 4.0, 8.0]
+    ladder = [0.5, 1.0, 2.0, 4.0, 8.0] if S.quick else [0.125, 0.25, 0.5, 1.0, 2.0, 4.0, 8.0]
     refine = 0 if S.quick else 2
     scenes = stability_scenes(S)
     futs = {}
@@ -1012,6 +1076,23 @@ def case6(S):
                     st is not None, "largest stable %s ms" % f3(st), known=KNOWN.get((6, name, m)))
     steps = refine
     lo, hi = ladder[0], ladder[-1]
+    # Diagnostic (full suite only): MLS on the drum with its own fit settings changed.
+    vrows = []
+    if not S.quick:
+        drum = scenes[0]
+        variants = [("fit radius 2 s", {"solver.mls_fit_radius": 2.0}),
+                    ("eigen tolerance 0.1", {"solver.mls_eigen_tolerance": 0.1}),
+                    ("pseudo-inverse", {"solver.mls_singular": "pseudo_inverse"})]
+        vf = []
+        for vname, vset in variants:
+            st = dict(drum[2])
+            st.update(vset)
+            vf.append((vname, S.pool.submit(ladder_search, S, "drum-mls-" + vname.replace(" ", "_"), drum[1], st,
+                                            drum[3], drum[4], "mls", ladder, 0)))
+        for vname, f in vf:
+            st, un, below, log = f.result()
+            vrows.append([vname, f3(st) if st else "none stable", ", ".join(
+                "%g: %s" % (dt, "stable" if log[dt][0] else log[dt][1]) for dt in sorted(log))])
     fig, ax = plt.subplots(figsize=(8, 3.8))
     width = 0.25
     for k, m in enumerate(METHODS):
@@ -1038,6 +1119,10 @@ def case6(S):
               "at most 100 iterations (deep column 200), XSPH 0.01).\n"
               % (", ".join("%g" % d for d in ladder), steps, 2.0 ** (1.0 / 2 ** steps)))
     md.append(md_table(["case", "mirroring (ms)", "sph (ms)", "mls (ms)", "mls / mirroring"], rows))
+    if vrows:
+        md.append("\nDiagnostic: MLS on the drum with its own fit settings changed (default: fit radius 3 spacings, "
+                  "eigenvalue ratio 0.02, fallback to the weighted mean), same ladder, no refinement.\n")
+        md.append(md_table(["MLS variant", "largest stable dt (ms)", "every trial"], vrows))
     md.append("\n![stability](%s)\n\nEvery trial run with its verdict and reason: [case6_stability.csv](%s).\n"
               % (S.rel("case6_stability.png"), S.rel("case6_stability.csv")))
     return {"res": res, "rows": rows, "md": "\n".join(md)}
@@ -1106,12 +1191,13 @@ def main():
     S = Suite(opts)
     S.pool = concurrent.futures.ThreadPoolExecutor(max_workers=opts.jobs + 16)
     run_sem = threading.Semaphore(opts.jobs)
-    inner = S._run
+    inner = S._run_raw
 
     def limited(*a, **k):
         with run_sem:
             return inner(*a, **k)
-    S._run = limited
+    S._run_raw = limited
+    S._run = S._run_once
     funcs = {1: case1, 2: case2, 3: case3, 4: case4, 5: case5, 6: case6}
     t0 = time.time()
     results = {}
