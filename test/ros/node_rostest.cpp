@@ -19,6 +19,7 @@
 #include <geometry_msgs/WrenchStamped.h>
 #include <gtest/gtest.h>
 #include <ros/ros.h>
+#include <rosgraph_msgs/Clock.h>
 #include <sensor_msgs/PointCloud2.h>
 #include <std_srvs/SetBool.h>
 #include <std_srvs/Trigger.h>
@@ -382,6 +383,54 @@ TEST(Pusher, MovingALinkThroughTfMovesItsParticlesAndItsWrench)
   EXPECT_LT(sum / n, 1.6 * buoyancy) << "mean force z under water " << sum / n << " N";
   std::printf("pusher: above water %.3f N, under water %.3f N (rho g V = %.3f N), %d messages\n", above, sum / n,
               buoyancy, n);
+}
+
+// ------------------------------------------------------------------------------ simtime.test
+
+TEST(SimTime, SimulatedTimeFollowsClockNotWallTime)
+{
+  ros::NodeHandle nh;
+  ros::Publisher clock = nh.advertise<rosgraph_msgs::Clock>("/clock", 10);
+  std::mutex m;
+  fluid_msgs::SolverStats last;
+  bool got = false;
+  auto sub =
+      nh.subscribe<fluid_msgs::SolverStats>("/fluid_sim/stats", 10, [&](const fluid_msgs::SolverStats::ConstPtr& s) {
+        std::lock_guard<std::mutex> lock(m);
+        last = *s;
+        got = true;
+      });
+  // /clock from 1000 s, advancing 1 ms every 2 ms of wall time (half speed), until the node has
+  // run 2 s of wall time after its first stats message.
+  rosgraph_msgs::Clock c;
+  c.clock = ros::Time(1000.0);
+  ros::WallTime first_stats;
+  double clock_at_first = 0, sim_at_first = 0;
+  const ros::WallTime start = ros::WallTime::now();
+  while ((ros::WallTime::now() - start).toSec() < 60.0)
+  {
+    c.clock += ros::Duration(0.001);
+    clock.publish(c);
+    ros::WallDuration(0.002).sleep();
+    std::lock_guard<std::mutex> lock(m);
+    if (got && first_stats.isZero() && last.sim_time > 0.2)
+    {
+      first_stats = ros::WallTime::now();
+      clock_at_first = c.clock.toSec();
+      sim_at_first = last.sim_time;
+    }
+    if (!first_stats.isZero() && (ros::WallTime::now() - first_stats).toSec() > 2.0) break;
+  }
+  ASSERT_FALSE(first_stats.isZero()) << "no stats from the node under use_sim_time";
+  ros::WallDuration(0.3).sleep();
+  std::lock_guard<std::mutex> lock(m);
+  const double clock_advance = c.clock.toSec() - clock_at_first;  // about 1 s in 2 s of wall time
+  const double sim_advance = last.sim_time - sim_at_first;
+  EXPECT_NEAR(sim_advance, clock_advance, 0.25) << "simulated time did not follow /clock";
+  // Stamps are the simulated instant on the /clock time line, trailing it by about tf_delay.
+  EXPECT_GT(last.header.stamp.toSec(), 1000.0);
+  EXPECT_LT(last.header.stamp.toSec(), c.clock.toSec() + 1e-6);
+  EXPECT_GT(last.header.stamp.toSec(), c.clock.toSec() - 0.5);
 }
 
 // ------------------------------------------------------------------------------ errors.test

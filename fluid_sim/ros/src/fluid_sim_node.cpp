@@ -652,6 +652,14 @@ struct FluidSimNode::Impl
         }
         stepping_on_request = paused && steps_requested > 0;
         rtf = real_time_factor;
+        if (reanchor && !stepping_on_request && rtf > 0.0 && ros::Time::now().isZero())
+        {
+          // use_sim_time and no /clock yet: ROS time is 0 until the first message.
+          lock.unlock();
+          ROS_INFO_THROTTLE(5.0, "waiting for /clock (use_sim_time is set)");
+          std::this_thread::sleep_for(std::chrono::milliseconds(10));
+          continue;
+        }
         if (reanchor && !stepping_on_request)
         {
           anchor_sim = sim->time();
@@ -680,6 +688,15 @@ struct FluidSimNode::Impl
         {
           const ros::Time now = ros::Time::now();
           if (now >= due) break;
+          if (now < anchor_ros)
+          {
+            // ROS time went back (a bag or a simulator restarted under use_sim_time).
+            ROS_WARN("ROS time jumped back from %.3f to %.3f s; simulated time continues from there",
+                     anchor_ros.toSec(), now.toSec());
+            std::lock_guard<std::mutex> lock(cmd_mutex);
+            reanchor = true;
+            break;
+          }
           {
             std::lock_guard<std::mutex> lock(cmd_mutex);
             if (reset_requested || paused || reanchor) break;
