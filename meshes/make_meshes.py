@@ -50,9 +50,10 @@ def normal(v, tri):
     return [x / length for x in n]
 
 
-def write_stl(name, v, t):
-    with open(os.path.join(HERE, name), "wb") as f:
-        f.write(f"fluid_sim {name}".encode().ljust(80, b" "))
+def write_stl(name, v, t, folder=HERE, title=None):
+    """Binary STL `folder/name` from vertices v and triangles t (80-byte header `title`)."""
+    with open(os.path.join(folder, name), "wb") as f:
+        f.write((title or f"fluid_sim {name}").encode().ljust(80, b" "))
         f.write(struct.pack("<I", len(t)))
         for tri in t:
             f.write(struct.pack("<3f", *normal(v, tri)))

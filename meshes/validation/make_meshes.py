@@ -17,31 +17,24 @@ The files are committed; this script documents them and remakes them:
     python3 meshes/validation/make_meshes.py
 Standard library only.
 """
+import importlib.util
 import math
 import os
-import struct
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 
 
-def normal(v, tri):
-    a, b, c = (v[i] for i in tri)
-    u = [b[k] - a[k] for k in range(3)]
-    w = [c[k] - a[k] for k in range(3)]
-    n = [u[1] * w[2] - u[2] * w[1], u[2] * w[0] - u[0] * w[2], u[0] * w[1] - u[1] * w[0]]
-    length = math.sqrt(sum(x * x for x in n)) or 1.0
-    return [x / length for x in n]
+# The STL writer of the demo meshes (meshes/make_meshes.py); loaded by path, as both files share a name.
+_spec = importlib.util.spec_from_file_location("fluid_sim_meshes", os.path.join(HERE, "..", "make_meshes.py"))
+_base = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(_base)
+
+
+normal = _base.normal
 
 
 def write_stl(name, v, t):
-    with open(os.path.join(HERE, name), "wb") as f:
-        f.write(f"fluid_sim validation {name}".encode().ljust(80, b" "))
-        f.write(struct.pack("<I", len(t)))
-        for tri in t:
-            f.write(struct.pack("<3f", *normal(v, tri)))
-            for i in tri:
-                f.write(struct.pack("<3f", *v[i]))
-            f.write(b"\0\0")
+    _base.write_stl(name, v, t, folder=HERE, title=f"fluid_sim validation {name}")
 
 
 def drum(radius=0.15, length=0.16, sectors=48, rows=8, hole_rows=(2, 5), hole_every=4):
