@@ -363,6 +363,7 @@ SolverConfig readSolver(const Entry& e)
   r.read("warm_start", s.warm_start);
   r.read("omega", s.omega);
   r.read("clamp_boundary_pressure", s.clamp_boundary_pressure);
+  r.read("limit_boundary_pressure", s.limit_boundary_pressure);
   r.read("mls_fit_radius", s.mls_fit_radius);
   r.read("mls_eigen_tolerance", s.mls_eigen_tolerance);
   if (auto m = r.get("mls_singular"))

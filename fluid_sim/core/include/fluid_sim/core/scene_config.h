@@ -153,6 +153,14 @@ struct SolverConfig
   bool warm_start = false;              // key: solver.warm_start
   double omega = 0.5;                   // relaxed Jacobi factor            key: solver.omega
   bool clamp_boundary_pressure = true;  // p_b >= 0 in the density solve key: solver.clamp_boundary_pressure
+  // Limit each extrapolated p_b (sph, mls) to the range of its fluid neighbours' pressures,
+  // widened by rho0 |g - a_b| * 5 spacings (the hydrostatic difference between the nearest water
+  // and the wall, about 1 spacing, plus margin for solver noise). Inactive at rest and in smooth
+  // flow (the buoyancy and pressure checks do not change); it
+  // stops a fit over few one-sided neighbours (a splash, an impact) from extrapolating a wall
+  // pressure the water around it could not hold, which shot single particles off with MLS at
+  // dt >= 1 ms (docs/validation.md). false = the paper's unlimited extrapolation.
+  bool limit_boundary_pressure = true;  //                              key: solver.limit_boundary_pressure
   double mls_fit_radius = 3.0;          // spacings; radius of the MLS fit  key: solver.mls_fit_radius
   double mls_eigen_tolerance = 0.02;    // smallest/largest eigenvalue    key: solver.mls_eigen_tolerance
   MlsSingularMode mls_singular = MlsSingularMode::Fallback;  //         key: solver.mls_singular

@@ -1,0 +1,58 @@
+// A hard case from the validation suite (docs/validation.md, case 1), small enough for CI: the
+// paper's breaking dam in a cylinder at 1 cm spacing with a 2 ms step. Unlimited MLS
+// extrapolation shot a single particle off within 0.3 s here (and at 1 ms within 0.5 s); with
+// solver.limit_boundary_pressure (the default) the run must stay stable, like SPH extrapolation.
+
+#include <gtest/gtest.h>
+
+#include "fluid_sim/core/simulation.h"
+
+using namespace fluid_sim;
+
+namespace
+{
+SceneConfig cylinderDamBreak(BoundaryPressureMethod method, double dt)
+{
+  SceneConfig s;
+  s.spacing = 0.01;
+  s.domain = {Vec3d(-0.32, -0.32, -0.02), Vec3d(0.32, 0.32, 0.32)};
+  s.time_step.fixed = dt;
+  s.solver.boundary_pressure = method;
+  s.viscosity.model = ViscosityModel::Xsph;
+  s.viscosity.coefficient = 0.01;
+  s.stability.max_density_error = 0.05;
+  FluidBlockConfig f;
+  f.box = {Vec3d(-0.28, -0.1, 0.0), Vec3d(-0.08, 0.1, 0.25)};
+  s.fluid.push_back(f);
+  BoundaryConfig tank;
+  tank.name = "tank";
+  tank.type = ShapeType::Cylinder;
+  tank.cylinder.center = Vec3d(0, 0, 0.15);
+  tank.cylinder.axis = Vec3d::UnitZ();
+  tank.cylinder.radius = 0.3;
+  tank.cylinder.length = 0.3;
+  tank.inside = true;
+  s.boundaries.push_back(tank);
+  return s;
+}
+}  // namespace
+
+TEST(Stability, LimitedMlsSurvivesTheCylinderDamBreakAtTwoMilliseconds)
+{
+  Simulation sim(cylinderDamBreak(BoundaryPressureMethod::Mls, 0.002));
+  ASSERT_TRUE(sim.scene().solver.limit_boundary_pressure);  // the default
+  const std::size_t n = sim.numFluidParticles();
+  double max_speed = 0.0;
+  while (sim.time() < 0.6 - 1e-9)
+  {
+    const StepReport r = sim.step();
+    ASSERT_FALSE(r.unstable) << "t = " << r.time << ": " << r.reason;
+    max_speed = std::max(max_speed, r.max_speed);
+  }
+  EXPECT_EQ(sim.numFluidParticles(), n);
+  // Measured (same scene through the runner): the fastest particle reaches 8.0 m/s with limited
+  // MLS against 4.0 (sph) and 3.9 (mirroring); the surge runs at about sqrt(2 g H) = 2.2 m/s.
+  // So the limiter stops the blow-up but MLS still kicks a few particles harder than the others;
+  // the bound here is the stability limit (max_cfl 2 = 10 m/s at this step), not a tuned one.
+  EXPECT_LT(max_speed, 2.0 * 0.01 / 0.002);
+}
