@@ -55,7 +55,7 @@ TEST(NeighborSearch, SelfQueryEqualsBruteForceAfterSorting)
     ASSERT_EQ(grid.order()[k], k) << "sorting a sorted set must be the identity";
   NeighborLists lists;
   buildNeighborLists(
-      sorted, grid, sorted, {}, r, true, [](const Vec3&, Real d2) { return d2; }, lists);
+      sorted, grid, sorted, {}, r, true, [](Real d2) { return d2; }, lists);
   EXPECT_EQ(rowsOf(lists), bruteForce(sorted, sorted, r, true));
   // Factors are the ones the callback produced for that pair.
   for (std::size_t i = 0; i < lists.rows(); ++i)
@@ -76,7 +76,7 @@ TEST(NeighborSearch, CrossQueryWithIdsAndLargerRadiusEqualsBruteForce)
   {
     NeighborLists lists;
     buildNeighborLists(
-        queries, grid, sorted, grid.order(), r, false, [](const Vec3&, Real) { return Real(1); }, lists);
+        queries, grid, sorted, grid.order(), r, false, [](Real) { return Real(1); }, lists);
     EXPECT_EQ(rowsOf(lists), bruteForce(queries, pts, r, false)) << "radius " << r;
   }
 }

@@ -422,7 +422,7 @@ struct Simulation::Impl
   {
     const CubicKernel& kern = kernel;
     // grad W(r) = factor * r  (factor = dW/dr / |r|, 1/m^5)
-    auto gradFactor = [&kern](const Vec3&, Real d2) -> Real { return kern.gradFactor(std::sqrt(d2)); };
+    auto gradFactor = [&kern](Real d2) -> Real { return kern.gradFactor(std::sqrt(d2)); };
     static const std::vector<Index> kIdentity;
     buildNeighborLists(x, fluid_grid, x, kIdentity, h, true, gradFactor, ff);
     if (!xb.empty())
@@ -463,7 +463,7 @@ struct Simulation::Impl
     for (std::size_t k = 0; k < active_list.size(); ++k) queries[k] = xb[active_list[k]];
     const Real radius = method() == BoundaryPressureMethod::Mls ? Real(scene.solver.mls_fit_radius * scene.spacing) : h;
     const CubicKernel fit_kernel(radius);
-    auto weight = [&fit_kernel](const Vec3&, Real d2) -> Real { return fit_kernel.W(std::sqrt(d2)); };
+    auto weight = [&fit_kernel](Real d2) -> Real { return fit_kernel.W(std::sqrt(d2)); };
     static const std::vector<Index> kIdentity;
     buildNeighborLists(queries, fluid_grid, x, kIdentity, radius, false, weight, bf);
   }

@@ -27,11 +27,14 @@ public:
   /// W(r), 1/m^3.
   Real W(Real r) const
   {
+    // Both pieces, then selects: neighbour distances are random to the branch predictor, and
+    // these run once per pair per step.
     const Real q = r * inv_h_;
-    if (q >= Real(1)) return Real(0);
-    if (q <= Real(0.5)) return k_ * (Real(6) * q * q * (q - Real(1)) + Real(1));
     const Real a = Real(1) - q;
-    return k_ * Real(2) * a * a * a;
+    const Real inner = k_ * (Real(6) * q * q * (q - Real(1)) + Real(1));
+    const Real outer = k_ * Real(2) * a * a * a;
+    const Real w = q <= Real(0.5) ? inner : outer;
+    return q < Real(1) ? w : Real(0);
   }
   Real W(const Vec3& r) const
   {
@@ -58,11 +61,13 @@ public:
   /// neighbour lists store this scalar per pair instead of a vector.
   Real gradFactor(Real r) const
   {
+    // Branch-free like W(). At r = 0 `outer` is infinite but never selected.
     const Real q = r * inv_h_;
-    if (q >= Real(1) || !(r > Real(0))) return Real(0);
-    if (q <= Real(0.5)) return l_ * (Real(3) * q - Real(2)) * inv_h_ * inv_h_;  // l q (3q - 2) / (h r), q / r = 1 / h
     const Real a = Real(1) - q;
-    return -l_ * a * a * inv_h_ / r;
+    const Real inner = l_ * (Real(3) * q - Real(2)) * inv_h_ * inv_h_;  // l q (3q - 2) / (h r), q / r = 1 / h
+    const Real outer = -l_ * a * a * inv_h_ / r;
+    const Real f = q <= Real(0.5) ? inner : outer;
+    return (q < Real(1) && r > Real(0)) ? f : Real(0);
   }
 
 private:

@@ -87,6 +87,7 @@ struct NeighborLists
   // Per-block staging reused from step to step (kept here so that rebuilding allocates nothing).
   std::vector<std::vector<Index>> scratch_index;
   std::vector<std::vector<Real>> scratch_factor;
+  std::vector<std::size_t> scratch_used;  // entries in use per block
 
   std::size_t rows() const
   {
@@ -100,7 +101,7 @@ struct NeighborLists
 
 /// Builds `out` for the `queries` against the points in `grid` (whose sorted positions are
 /// `sorted_points`, i.e. points in grid order; `ids` maps a sorted position to the stored index, or
-/// is empty for identity). `pairFactor(r_vec, r2) -> Real` gives the stored factor. With
+/// is empty for identity). `pairFactor(r2) -> Real` gives the stored factor from the squared distance (m^2). With
 /// `skip_self`, query i never lists point i (queries and points are the same set, identity ids).
 /// Parallel over queries; the result does not depend on the thread count.
 template <class PairFactor>

@@ -29,33 +29,46 @@ void buildNeighborLists(const std::vector<Vec3>& queries, const UniformGrid& gri
     block_index.resize(blocks);
     block_factor.resize(blocks);
   }
+  auto& block_used = out.scratch_used;
+  block_used.resize(std::max(block_used.size(), blocks));
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, blocks, 1), [&](const tbb::blocked_range<std::size_t>& rb) {
     for (std::size_t b = rb.begin(); b != rb.end(); ++b)
     {
       auto& bi = block_index[b];
       auto& bf = block_factor[b];
-      bi.clear();
-      bf.clear();
+      std::size_t used = 0;
       const std::size_t i_end = std::min(n, (b + 1) * kBlock);
       for (std::size_t i = b * kBlock; i < i_end; ++i)
       {
         const Vec3 xi = queries[i];
-        Index count = 0;
+        const std::size_t row_start = used;
         grid.forEachRange(xi, reach, [&](Index begin, Index end) {
+          const std::size_t len = end - begin;
+          if (bi.size() < used + len)
+          {
+            bi.resize(std::max(2 * bi.size(), used + len + 256));
+            bf.resize(bi.size());
+          }
+          Index* out_j = bi.data();
+          Real* out_d2 = bf.data();
+          // Branch-free compaction: every candidate is written, only hits advance the cursor.
+          // Once the particles are disordered the hit test is a coin toss for the branch
+          // predictor; with a branch the search took 3x longer late in a dam break than on the
+          // initial lattice at the same candidate count.
           for (Index k = begin; k < end; ++k)
           {
-            const Vec3 d = xi - sorted_points[k];
-            const Real d2 = d.squaredNorm();
-            if (d2 >= r2max) continue;
+            const Real d2 = (xi - sorted_points[k]).squaredNorm();
             const Index j = ids.empty() ? k : ids[k];
-            if (skip_self && j == i) continue;
-            bi.push_back(j);
-            bf.push_back(pairFactor(d, d2));
-            ++count;
+            out_j[used] = j;
+            out_d2[used] = d2;
+            used += std::size_t((d2 < r2max) & !(skip_self & (j == Index(i))));
           }
         });
-        out.offset[i + 1] = count;
+        // Factors for the hits only (r^2 is overwritten by the factor in place).
+        for (std::size_t k = row_start; k < used; ++k) bf[k] = pairFactor(bf[k]);
+        out.offset[i + 1] = Index(used - row_start);
       }
+      block_used[b] = used;
     }
   });
   for (std::size_t i = 0; i < n; ++i) out.offset[i + 1] += out.offset[i];
@@ -65,8 +78,8 @@ void buildNeighborLists(const std::vector<Vec3>& queries, const UniformGrid& gri
     for (std::size_t b = rb.begin(); b != rb.end(); ++b)
     {
       const std::size_t start = out.offset[b * kBlock];
-      std::copy(block_index[b].begin(), block_index[b].end(), out.index.begin() + start);
-      std::copy(block_factor[b].begin(), block_factor[b].end(), out.factor.begin() + start);
+      std::copy_n(block_index[b].begin(), block_used[b], out.index.begin() + start);
+      std::copy_n(block_factor[b].begin(), block_used[b], out.factor.begin() + start);
     }
   });
 }
