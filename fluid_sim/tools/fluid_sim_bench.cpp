@@ -10,10 +10,13 @@
 
 #include <sys/resource.h>
 
+#include <tbb/blocked_range.h>
 #include <tbb/global_control.h>
+#include <tbb/parallel_reduce.h>
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <chrono>
+#include <cstdint>
 #include <cstdio>
 #include <fstream>
 #include <functional>
@@ -52,6 +55,8 @@ struct Row
   double ms_neighbors = 0.0;               // ms per step in the neighbour search (mean)
   double ms_solves = 0.0;                  // ms per step in the divergence + density solves (mean)
   double density_error = 0.0;              // relative, mean over the measured steps
+  double pairs_per_particle = 0.0;         // fluid-fluid + fluid-boundary pairs per fluid particle (mean)
+  double ns_per_pair_pass = 0.0;           // ns in the two solves / (pairs x iterations x 2 passes)
   int not_converged = 0;                   // steps with a solve stopped at max_iterations
   int unstable = 0;                        // steps reported unstable
   std::string unstable_reason;             // first reason seen
@@ -109,6 +114,8 @@ Row runOne(const fluid_sim::SceneConfig& scene, int warmup, int steps)
   wall_ms.reserve(static_cast<std::size_t>(steps));
   double sum_div = 0.0, sum_dens = 0.0, sum_nbr = 0.0, sum_solve_ms = 0.0, sum_err = 0.0;
   double particle_iterations = 0.0;  // sum over steps of fluid particles * (div + density iterations)
+  double pair_passes = 0.0;          // sum over steps of pairs * iterations * 2 (a^p pass + Jacobi pass)
+  double sum_pairs_per_particle = 0.0;
   for (int i = 0; i < steps; ++i)
   {
     const auto start = Clock::now();
@@ -119,8 +126,11 @@ Row runOne(const fluid_sim::SceneConfig& scene, int warmup, int steps)
     sum_nbr += report.ms_neighbors;
     sum_solve_ms += report.ms_divergence + report.ms_density;
     sum_err += report.density_error;
-    particle_iterations += static_cast<double>(report.fluid_particles) *
-                           static_cast<double>(report.divergence_iterations + report.density_iterations);
+    const double iterations = static_cast<double>(report.divergence_iterations + report.density_iterations);
+    particle_iterations += static_cast<double>(report.fluid_particles) * iterations;
+    pair_passes += 2.0 * static_cast<double>(report.neighbor_pairs) * iterations;
+    sum_pairs_per_particle += static_cast<double>(report.neighbor_pairs) /
+                              static_cast<double>(std::max<std::size_t>(report.fluid_particles, 1));
     if (!report.divergence_converged || !report.density_converged) ++row.not_converged;
     if (report.unstable)
     {
@@ -143,6 +153,8 @@ Row runOne(const fluid_sim::SceneConfig& scene, int warmup, int steps)
   row.ms_solves = sum_solve_ms / n;
   row.density_error = sum_err / n;
   row.ns_per_particle_iteration = particle_iterations > 0.0 ? sum_solve_ms * 1.0e6 / particle_iterations : 0.0;
+  row.pairs_per_particle = sum_pairs_per_particle / n;
+  row.ns_per_pair_pass = pair_passes > 0.0 ? sum_solve_ms * 1.0e6 / pair_passes : 0.0;
   row.peak_rss_kib = peakRssKib();
   const std::size_t particles = row.fluid + row.boundary;
   row.peak_bytes_per_particle =
@@ -152,11 +164,11 @@ Row runOne(const fluid_sim::SceneConfig& scene, int warmup, int steps)
 
 void printHeader()
 {
-  std::printf("%8s %-9s %9s %9s %7s %9s %9s %7s %7s %10s %8s %10s %9s %7s\n", "spacing", "method", "fluid", "boundary",
-              "setup", "ms/step", "median", "div_it", "dens_it", "ns/(p*it)", "nbr_ms", "dens_err", "peak_B/p",
-              "flags");
-  std::printf("%8s %-9s %9s %9s %7s %9s %9s %7s %7s %10s %8s %10s %9s %7s\n", "m", "", "", "", "s", "mean", "", "/step",
-              "/step", "ns", "/step", "mean", "B", "");
+  std::printf("%8s %-9s %9s %9s %7s %9s %9s %7s %7s %10s %7s %8s %8s %10s %9s %7s\n", "spacing", "method", "fluid",
+              "boundary", "setup", "ms/step", "median", "div_it", "dens_it", "ns/(p*it)", "pairs/p", "ns/pair",
+              "nbr_ms", "dens_err", "peak_B/p", "flags");
+  std::printf("%8s %-9s %9s %9s %7s %9s %9s %7s %7s %10s %7s %8s %8s %10s %9s %7s\n", "m", "", "", "", "s", "mean", "",
+              "/step", "/step", "ns", "", "/pass", "/step", "mean", "B", "");
   std::fflush(stdout);
 }
 
@@ -167,10 +179,10 @@ void printRow(const Row& r)
     flags = "UNSTABLE";
   else if (r.not_converged > 0)
     flags = "nc=" + std::to_string(r.not_converged);
-  std::printf("%8.4f %-9s %9zu %9zu %7.2f %9.3f %9.3f %7.2f %7.2f %10.2f %8.3f %10.2e %9.0f %7s\n", r.spacing,
-              r.method.c_str(), r.fluid, r.boundary, r.setup_s, r.ms_mean, r.ms_median, r.divergence_iterations,
-              r.density_iterations, r.ns_per_particle_iteration, r.ms_neighbors, r.density_error,
-              r.peak_bytes_per_particle, flags.c_str());
+  std::printf("%8.4f %-9s %9zu %9zu %7.2f %9.3f %9.3f %7.2f %7.2f %10.2f %7.1f %8.3f %8.3f %10.2e %9.0f %7s\n",
+              r.spacing, r.method.c_str(), r.fluid, r.boundary, r.setup_s, r.ms_mean, r.ms_median,
+              r.divergence_iterations, r.density_iterations, r.ns_per_particle_iteration, r.pairs_per_particle,
+              r.ns_per_pair_pass, r.ms_neighbors, r.density_error, r.peak_bytes_per_particle, flags.c_str());
   std::fflush(stdout);
 }
 
@@ -191,11 +203,37 @@ nlohmann::json toJson(const Row& r)
                         {"ms_neighbors_per_step", r.ms_neighbors},
                         {"ms_solves_per_step", r.ms_solves},
                         {"density_error_mean", r.density_error},
+                        {"pairs_per_particle", r.pairs_per_particle},
+                        {"ns_per_pair_pass", r.ns_per_pair_pass},
                         {"steps_not_converged", r.not_converged},
                         {"steps_unstable", r.unstable},
                         {"unstable_reason", r.unstable_reason},
                         {"process_peak_rss_kib", r.peak_rss_kib},
                         {"peak_bytes_per_particle", r.peak_bytes_per_particle}};
+}
+
+/// Best-of-5 read bandwidth (GB/s) of a parallel sum over `bytes` of 32-bit words: the reference
+/// that says whether a solver pass is bound by memory traffic (its pair lists stream 8 B per
+/// pair). Integer sums vectorise freely, so the loop is not limited by an add chain.
+double readBandwidthGBs(std::size_t bytes)
+{
+  std::vector<std::uint32_t> data(bytes / sizeof(std::uint32_t), 1u);
+  double best = 0.0;
+  for (int rep = 0; rep < 5; ++rep)
+  {
+    const auto start = Clock::now();
+    const std::uint64_t sum = tbb::parallel_reduce(
+        tbb::blocked_range<std::size_t>(0, data.size(), 1 << 14), std::uint64_t(0),
+        [&](const tbb::blocked_range<std::size_t>& r, std::uint64_t acc) {
+          for (std::size_t i = r.begin(); i != r.end(); ++i) acc += data[i];
+          return acc;
+        },
+        std::plus<std::uint64_t>());
+    const double s = std::chrono::duration<double>(Clock::now() - start).count();
+    if (sum != data.size()) std::printf("bandwidth check: bad sum\n");  // also keeps the loop alive
+    best = std::max(best, double(bytes) / s / 1e9);
+  }
+  return best;
 }
 
 std::string findDefaultScene()
@@ -296,7 +334,9 @@ int main(int argc, char** argv)
   for (const std::string& w : scenes.front().warnings) std::printf("  warning: %s\n", w.c_str());
   std::printf(
       "ms/step: wall clock of Simulation::step(); ns/(p*it): time in the two solves / (fluid particles x "
-      "iterations);\nnbr_ms: neighbour search per step; dens_err: mean relative density error; peak_B/p: PROCESS "
+      "iterations);\npairs/p: fluid-fluid + fluid-boundary pairs per fluid particle; ns/pair: time in the two solves / "
+      "(pairs x iterations x 2 passes);\nnbr_ms: neighbour search per step; dens_err: mean relative density error; "
+      "peak_B/p: PROCESS "
       "peak RSS\n(getrusage ru_maxrss, monotone over the run: later rows include earlier ones) / (fluid + boundary "
       "particles);\nflags: ok | nc=N (steps with a solve at max_iterations) | UNSTABLE.\n\n");
   printHeader();
@@ -323,6 +363,16 @@ int main(int argc, char** argv)
     }
   }
 
+  // Reference bandwidths, measured in this run with the same threads: a pass over the pair lists
+  // streams 8 B per pair (index + factor) plus gathers of neighbour data that mostly hit cache.
+  const double bw_cache = readBandwidthGBs(std::size_t(8) << 20);
+  const double bw_memory = readBandwidthGBs(std::size_t(512) << 20);
+  std::printf(
+      "\nreference: parallel read of 8 MiB (cache-resident) %.1f GB/s, of 512 MiB (main memory) %.1f GB/s;\n"
+      "a solver pass streams 8 B per pair: at 8 B / (ns/pair) GB/s it would match them at %.2f and %.2f "
+      "ns/pair.\n",
+      bw_cache, bw_memory, 8.0 / bw_cache, 8.0 / bw_memory);
+
   if (!json_path.empty())
   {
     nlohmann::json doc{{"scene", scene_path},
@@ -332,6 +382,8 @@ int main(int argc, char** argv)
                        {"measured_steps", steps},
                        {"overrides", overrides},
                        {"rss_note", "process peak RSS (ru_maxrss), monotone: rows run coarse to fine"},
+                       {"read_bandwidth_8mib_gb_s", bw_cache},
+                       {"read_bandwidth_512mib_gb_s", bw_memory},
                        {"rows", json_rows}};
     std::ofstream out(json_path);
     if (!out)

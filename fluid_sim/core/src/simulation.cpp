@@ -836,6 +836,7 @@ struct Simulation::Impl
     sortFluid();
     buildNeighbors();
     rep.ms_neighbors = msSince(tn);
+    rep.neighbor_pairs = ff.pairs() + fb.pairs();
 
     computeDensityAndDiagonal();
     if (M != BoundaryPressureMethod::Mirroring) computeExtrapolationCoefficients();

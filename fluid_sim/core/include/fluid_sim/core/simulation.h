@@ -29,6 +29,7 @@ struct StepReport
   std::size_t mls_fallbacks = 0;    // boundary particles using Eq. 16 this step (MLS only)
   std::size_t mls_reduced = 0;      // boundary particles with a pseudo-inverse fit (MLS only)
   std::size_t active_boundary = 0;  // boundary particles with a fluid neighbour
+  std::size_t neighbor_pairs = 0;   // fluid-fluid + fluid-boundary pairs in this step's lists
   bool unstable = false;
   std::string reason;  // why unstable
   // Wall-clock split of the step, ms.
