@@ -184,19 +184,55 @@ TEST_P(Rest, BlockAtRestComesToRest)
   EXPECT_EQ(sim.numFluidParticles(), n);
 }
 
+class WallWork : public Hydrostatics
+{
+};
+
+TEST_P(WallWork, BoundaryPressureTermWork)
+{
+  // The p_b part of the wall term, -psi_b (p_b/rho0^2) grad W_ib, is the gradient of a potential
+  // while p_b is a fixed field on the wall: sph and mls extrapolate one p_b per boundary particle,
+  // and near rest that field stands still, so over 1.5 s the term does almost no net work
+  // (measured |W| <= 0.03 J, 0.2 % of m g H). Mirroring gives each fluid particle its own p_b = p_i;
+  // along a vertical wall p_i grows with depth, the term has a curl and drives a circulation
+  // (down the walls, up the middle) that it keeps feeding: measured W = 5.9 J by 1.5 s against
+  // 0.4 J of kinetic energy left in the water. That is why the mirroring Rest test cannot pass
+  // (docs/method_notes.md). If this part ever fails for mirroring, the mirroring tests below
+  // deserve another run.
+  Simulation sim(column(GetParam(), 0.2, 0.2));
+  const double mgh = sim.numFluidParticles() * sim.particleMass() * kG * 0.2;  // J
+  double work = 0.0, ke = 0.0;
+  while (sim.time() < 1.5 - 1e-9)
+  {
+    const StepReport r = sim.step();
+    ASSERT_FALSE(r.unstable) << r.reason;
+    work += r.boundary_pressure_work;
+    ke = r.kinetic_energy;
+  }
+  if (GetParam() == BoundaryPressureMethod::Mirroring)
+  {
+    EXPECT_GT(work, 0.1 * mgh) << "mirroring: W " << work << " J, m g H " << mgh << " J";
+    EXPECT_GT(work, 3.0 * ke) << "mirroring: W " << work << " J, kinetic energy " << ke << " J";
+  }
+  else
+    EXPECT_LT(std::abs(work), 0.005 * mgh) << toString(GetParam()) << ": W " << work << " J, m g H " << mgh << " J";
+}
+
 const auto kAll = ::testing::Values(BoundaryPressureMethod::Mirroring, BoundaryPressureMethod::SphExtrapolation,
                                     BoundaryPressureMethod::Mls);
 const auto kExtrapolated = ::testing::Values(BoundaryPressureMethod::SphExtrapolation, BoundaryPressureMethod::Mls);
 INSTANTIATE_TEST_SUITE_P(AllMethods, Hydrostatics, kAll, methodName);
 INSTANTIATE_TEST_SUITE_P(Extrapolated, PressureProfile, kExtrapolated, methodName);
-// Known failures, kept runnable (--gtest_also_run_disabled_tests) and measured in the issue note:
-// with mirroring (Eq. 2) the water in the box does not come to rest (rms speed grows to 0.37 m/s
-// in 3 s where sph and mls decay to 0.004 m/s), its time-averaged pressure is ~15 % above
-// rho0 g d and the cube's buoyancy +22 % at 7 spacings a side.
+// Known failures, kept runnable (--gtest_also_run_disabled_tests): with mirroring (Eq. 2) the
+// water in the box does not come to rest (rms speed grows to 0.37 m/s in 3 s where sph and mls
+// decay to 0.004 m/s), its time-averaged pressure is ~15 % above rho0 g d and the cube's
+// buoyancy +22 % at 7 spacings a side. The cause, the mirrored p_b term's work, is what
+// WallWork.BoundaryPressureTermWork measures (docs/method_notes.md).
 INSTANTIATE_TEST_SUITE_P(DISABLED_Mirroring, PressureProfile, ::testing::Values(BoundaryPressureMethod::Mirroring),
                          methodName);
 INSTANTIATE_TEST_SUITE_P(Extrapolated, Buoyancy, kExtrapolated, methodName);
 INSTANTIATE_TEST_SUITE_P(DISABLED_Mirroring, Buoyancy, ::testing::Values(BoundaryPressureMethod::Mirroring),
                          methodName);
 INSTANTIATE_TEST_SUITE_P(Extrapolated, Rest, kExtrapolated, methodName);
+INSTANTIATE_TEST_SUITE_P(AllMethods, WallWork, kAll, methodName);
 INSTANTIATE_TEST_SUITE_P(DISABLED_Mirroring, Rest, ::testing::Values(BoundaryPressureMethod::Mirroring), methodName);

@@ -92,6 +92,8 @@ TEST(StatsCsvWriter, HeaderAndRows)
     r.dt = 0.001;
     r.density_iterations = 4;
     r.fluid_particles = 1234;
+    r.kinetic_energy = 0.25;
+    r.boundary_pressure_work = -0.125;
     csv.write(1, r, 2.5);
     r.time = 0.002;
     csv.write(2, r, 2.0);
@@ -110,6 +112,9 @@ TEST(StatsCsvWriter, HeaderAndRows)
       << header;
   EXPECT_EQ(row1.rfind("1,0.001,0.001,0,4,0,0,0,1234,0,2.5,", 0), 0u) << row1;
   EXPECT_EQ(row2.rfind("2,0.002,", 0), 0u) << row2;
+  // Columns added later go at the end, so scripts that read the first ones keep working.
+  EXPECT_NE(header.find(",kinetic_energy,boundary_pressure_work"), std::string::npos) << header;
+  EXPECT_NE(row1.find(",0.25,-0.125"), std::string::npos) << row1;
   const auto columns = [](const std::string& line) { return std::count(line.begin(), line.end(), ',') + 1; };
   EXPECT_EQ(columns(row1), columns(header));
 }

@@ -135,7 +135,8 @@ struct Simulation::Impl
   bool boundary_grid_valid = false;
 
   UniformGrid fluid_grid, boundary_grid;
-  NeighborLists ff, fb, bf;  // ff/fb factor: grad W = factor * (x_i - x_j); bf factor: coefficient c_bf
+  std::vector<Vec3> wall_dv;  // m/s, this step's velocity change from the p_b wall term (diagnostic)
+  NeighborLists ff, fb, bf;   // ff/fb factor: grad W = factor * (x_i - x_j); bf factor: coefficient c_bf
 
   std::size_t initial_count = 0, removed_start = 0, removed_total = 0;
   std::size_t mls_fallbacks = 0, mls_reduced = 0;
@@ -613,9 +614,12 @@ struct Simulation::Impl
                       });
   }
 
-  /// Pressure acceleration a^p (Eq. 1, or Eq. 2 for mirroring) from pressures pf; m/s^2.
-  template <BoundaryPressureMethod M>
-  void computePressureAcceleration(const std::vector<Real>& pf)
+  /// Pressure acceleration a^p (Eq. 1, or Eq. 2 for mirroring) from pressures pf; m/s^2. With
+  /// kRecordWall (the final evaluation of a solve) it also adds wall_dt (s) times the p_b part of
+  /// the wall term, -sum_b psi_b (p_b/rho0^2) grad W_ib, to wall_dv: at the end of the step
+  /// sum_i m wall_dv_i . v_i is that term's work (StepReport::boundary_pressure_work).
+  template <BoundaryPressureMethod M, bool kRecordWall = false>
+  void computePressureAcceleration(const std::vector<Real>& pf, Real wall_dt = 0)
   {
     const std::size_t n = x.size();
     kappa.resize(n);
@@ -635,16 +639,19 @@ struct Simulation::Impl
       {
         // Eq. 2: p_b = p_i, so the boundary term is (p_i/rho_i^2 + p_i/rho0^2) sum_b psi_b grad W_ib.
         acc -= (ki + pf[i] * inv_rho0_sq) * grad_b[i];
+        if constexpr (kRecordWall) wall_dv[i] -= (wall_dt * pf[i] * inv_rho0_sq) * grad_b[i];
       }
       else
       {
         // Eq. 1 with the stored p_b: (p_i/rho_i^2) grad_b + sum_b psi_b p_b/rho0^2 grad W_ib.
-        acc -= ki * grad_b[i];
+        Vec3 wall = Vec3::Zero();
         for (Index k = fb.offset[i]; k < fb.offset[i + 1]; ++k)
         {
           const Index b = fb.index[k];
-          acc -= (rho0 * Vb[b] * pb[b] * inv_rho0_sq * fb.factor[k]) * (xi - xb[b]);
+          wall -= (rho0 * Vb[b] * pb[b] * inv_rho0_sq * fb.factor[k]) * (xi - xb[b]);
         }
+        acc += wall - ki * grad_b[i];
+        if constexpr (kRecordWall) wall_dv[i] += wall_dt * wall;
       }
       a[i] = acc;
     });
@@ -715,7 +722,7 @@ struct Simulation::Impl
       }
     }
     prepareBoundary<M>(pf, density_solve);
-    computePressureAcceleration<M>(pf);
+    computePressureAcceleration<M, true>(pf, Real(dt));  // the final a^p, also adding to wall_dv
     return it;
   }
 
@@ -844,6 +851,7 @@ struct Simulation::Impl
 
     const std::size_t n = x.size();
     src.resize(n);
+    wall_dv.assign(n, Vec3::Zero());
     std::vector<Vec3d> fsum(2 * bodies.size(), Vec3d::Zero());
 
     // Divergence solve (METHOD.md step 3): only compression counts at the free surface.
@@ -877,6 +885,8 @@ struct Simulation::Impl
       x[i] += Real(dt) * v[i];
     });
     rep.ms_density = msSince(tp);
+    rep.boundary_pressure_work =
+        double(mass) * parallelSum(n, [&](std::size_t i) { return double(wall_dv[i].dot(v[i])); });
     p_total.resize(n);
     parallelFor(n, [&](std::size_t i) { p_total[i] = p[i] + (scene.solver.divergence_solve ? p_div[i] : Real(0)); });
 
@@ -937,6 +947,7 @@ struct Simulation::Impl
     const double nonfinite =
         parallelSum(n, [&](std::size_t i) { return (x[i].allFinite() && v[i].allFinite()) ? 0.0 : 1.0; });
     rep.max_speed = parallelMax(n, [&](std::size_t i) { return v[i].norm(); });
+    rep.kinetic_energy = 0.5 * double(mass) * parallelSum(n, [&](std::size_t i) { return double(v[i].squaredNorm()); });
     if (nonfinite > 0)
     {
       rep.unstable = true;

@@ -12,7 +12,7 @@ const std::string& StatsCsvWriter::header()
       "step,t,dt,divergence_iterations,density_iterations,density_error,divergence_error,max_speed,"
       "fluid_particles,removed,wall_ms,"
       "max_density_error,ms_neighbors,ms_divergence,ms_density,mls_fallbacks,mls_reduced,active_boundary,"
-      "divergence_converged,density_converged";
+      "divergence_converged,density_converged,kinetic_energy,boundary_pressure_work";
   return line;
 }
 
@@ -29,7 +29,8 @@ void StatsCsvWriter::write(std::size_t step, const StepReport& r, double wall_ms
        << r.density_error << ',' << r.divergence_error << ',' << r.max_speed << ',' << r.fluid_particles << ','
        << r.removed << ',' << wall_ms << ',' << r.max_density_error << ',' << r.ms_neighbors << ',' << r.ms_divergence
        << ',' << r.ms_density << ',' << r.mls_fallbacks << ',' << r.mls_reduced << ',' << r.active_boundary << ','
-       << int(r.divergence_converged) << ',' << int(r.density_converged) << '\n';
+       << int(r.divergence_converged) << ',' << int(r.density_converged) << ',' << r.kinetic_energy << ','
+       << r.boundary_pressure_work << '\n';
 }
 
 void StatsCsvWriter::flush()

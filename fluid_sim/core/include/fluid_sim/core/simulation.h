@@ -20,10 +20,18 @@ struct StepReport
   int density_iterations = 0;
   bool divergence_converged = true;
   bool density_converged = true;
-  double divergence_error = 0.0;    // mean relative density change per step (positive part)
-  double density_error = 0.0;       // mean relative density error (positive part), final
-  double max_density_error = 0.0;   // max relative (rho - rho0)/rho0 at the start of the step
-  double max_speed = 0.0;           // m/s after the step
+  double divergence_error = 0.0;   // mean relative density change per step (positive part)
+  double density_error = 0.0;      // mean relative density error (positive part), final
+  double max_density_error = 0.0;  // max relative (rho - rho0)/rho0 at the start of the step
+  double max_speed = 0.0;          // m/s after the step
+  double kinetic_energy = 0.0;     // J, of the fluid after the step
+  // J: work done on the fluid this step by the boundary-pressure part of the wall term,
+  // -sum_b psi_b (p_b/rho0^2) grad W_ib (METHOD.md Eq. 1; with mirroring p_b = p_i, Eq. 2): its
+  // velocity change from both solves dotted with m v after the step (the displacement is dt v).
+  // The other wall term, (p_i/rho_i^2) grad_b, is the adjoint of the discrete divergence; this
+  // one is conservative only while p_b is a fixed field on the wall (sph, mls near rest), not when
+  // it follows each fluid particle's own pressure (mirroring). A diagnostic; see method_notes.
+  double boundary_pressure_work = 0.0;
   std::size_t fluid_particles = 0;  // after the step
   std::size_t removed = 0;          // particles that left the domain during this step
   std::size_t mls_fallbacks = 0;    // boundary particles using Eq. 16 this step (MLS only)
