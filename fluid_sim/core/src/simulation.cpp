@@ -155,8 +155,11 @@ struct Simulation::Impl
       , mass(Real(cfg.rest_density * cfg.spacing * cfg.spacing * cfg.spacing))
       , kernel(Real(2.0 * cfg.spacing))
       , gravity(cfg.gravity.cast<Real>())
-      , fluid_grid(cfg.domain.min, cfg.domain.max, cfg.spacing, 2)
-      , boundary_grid(cfg.domain.min, cfg.domain.max, cfg.spacing, 2)
+      // Grid cells of the kernel support h (m): a query visits 9 rows of 3 cells, ~24 candidates
+      // each, long enough for the vector path of buildNeighborLists. With cells of one spacing
+      // (25 rows of ~5) the search took 6.5 instead of 4.4 ms per step in bench_dam_break.
+      , fluid_grid(cfg.domain.min, cfg.domain.max, 2 * cfg.spacing, 2)
+      , boundary_grid(cfg.domain.min, cfg.domain.max, 2 * cfg.spacing, 2)
   {
     setupBodies();
     indexOpenShells();

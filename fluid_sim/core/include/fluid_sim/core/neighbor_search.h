@@ -88,6 +88,7 @@ struct NeighborLists
   std::vector<std::vector<Index>> scratch_index;
   std::vector<std::vector<Real>> scratch_factor;
   std::vector<std::size_t> scratch_used;  // entries in use per block
+  std::vector<Real> scratch_soa;          // the points as x, y, z arrays
 
   std::size_t rows() const
   {
