@@ -869,11 +869,12 @@ struct Simulation::Impl
     {
       computeDensityRate();
       parallelFor(n, [&](std::size_t i) { src[i] = -std::max(drho[i], Real(0)) / Real(dt); });
-      // Warm start: the previous step's pressure only where the water is compressing now. A
-      // stale pressure on a particle that has since left the bulk (a splash, with few
-      // neighbours and a small density) would accelerate it by p/rho^2 before the two minimum
-      // iterations could bring it down: with the plain previous pressure the dam break blew up
-      // for every boundary method (particles at 100-200 m/s by 0.26-0.42 s).
+      // Warm start: the previous step's pressure only where the water is compressing now and
+      // is at or above rest density. A stale pressure on a particle that has since left the bulk
+      // (a splash, with one or two neighbours, a density near 0.3 rho0 and a tiny diagonal)
+      // would accelerate it by p/rho^2 before the two minimum iterations could bring it down:
+      // with the plain previous pressure the dam breaks blew up for every boundary method
+      // (particles at 100-200 m/s by 0.26-0.42 s; docs/method_notes.md).
       if (scene.solver.warm_start)
         parallelFor(n, [&](std::size_t i) {
           if (!(src[i] < 0 && rho[i] >= rho0)) p_div[i] = 0;
@@ -895,7 +896,7 @@ struct Simulation::Impl
     computeDensityRate();
     const Real inv_dt = Real(1.0 / dt), inv_dt2 = Real(1.0 / (dt * dt));
     parallelFor(n, [&](std::size_t i) { src[i] = (rho0 - rho[i]) * inv_dt2 - drho[i] * inv_dt; });
-    if (scene.solver.warm_start)  // as above: only where the predicted density exceeds rho0
+    if (scene.solver.warm_start)  // as above: predicted density above rho0 and rho >= rho0
       parallelFor(n, [&](std::size_t i) {
         if (!(src[i] < 0 && rho[i] >= rho0)) p[i] = 0;
       });
