@@ -255,6 +255,13 @@ def md_table(header, rows):
 PAPER_TABLE1 = {0.25: (4.0, 4.0, 4.0), 0.5: (5.7, 5.7, 5.6), 1.0: (12.0, 12.2, 11.8), 1.5: (14.9, 16.0, 14.9)}
 
 
+# MLS diagnostics of cases 1 and 6: MLS with one of its own settings changed (label, --set keys).
+MLS_VARIANTS = [("unlimited (the paper)", {"solver.limit_boundary_pressure": "false"}),
+                ("fit radius 2 s", {"solver.mls_fit_radius": 2.0}),
+                ("eigen tolerance 0.1", {"solver.mls_eigen_tolerance": 0.1}),
+                ("pseudo-inverse", {"solver.mls_singular": "pseudo_inverse"})]
+
+
 def case1(S):
     if S.quick:
         dts, spacing, duration = [0.5, 1.0, 2.0], 0.02, 0.3
@@ -333,10 +340,7 @@ def case1(S):
     # Diagnostics (full suite only): MLS with its own fit settings changed, to locate its
     # instability. These settings exist only for MLS, so they are not a per-method tuning of the
     # comparison above; they are reported separately.
-    variants = [] if S.quick else [("unlimited (the paper)", {"solver.limit_boundary_pressure": "false"}),
-                                   ("fit radius 2 s", {"solver.mls_fit_radius": 2.0}),
-                                   ("eigen tolerance 0.1", {"solver.mls_eigen_tolerance": 0.1}),
-                                   ("pseudo-inverse", {"solver.mls_singular": "pseudo_inverse"})]
+    variants = [] if S.quick else MLS_VARIANTS
     vdts = [1.0, 2.0, 3.0]
     vrows = []
     if variants:
@@ -1081,10 +1085,7 @@ def case6(S):
     vrows = []
     if not S.quick:
         drum = scenes[0]
-        variants = [("unlimited (the paper)", {"solver.limit_boundary_pressure": "false"}),
-                    ("fit radius 2 s", {"solver.mls_fit_radius": 2.0}),
-                    ("eigen tolerance 0.1", {"solver.mls_eigen_tolerance": 0.1}),
-                    ("pseudo-inverse", {"solver.mls_singular": "pseudo_inverse"})]
+        variants = MLS_VARIANTS
         vf = []
         for vname, vset in variants:
             st = dict(drum[2])

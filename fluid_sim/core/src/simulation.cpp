@@ -836,6 +836,25 @@ struct Simulation::Impl
     parallelFor(n, [&](std::size_t i) { v[i] += dv[i] + dtr * gravity; });
   }
 
+  /// First guess of a solve whose source `src` is set: zero, or with solver.warm_start the
+  /// previous step's pressure where the water is compressing now (src < 0) and is at or above
+  /// rest density. A stale pressure on a particle that has since left the bulk (a splash, with one
+  /// or two neighbours, a density near 0.3 rho0 and a tiny diagonal) would accelerate it by
+  /// p/rho^2 before the two minimum iterations could bring it down: with the plain previous
+  /// pressure the dam breaks blew up for every boundary method (particles at 100-200 m/s by
+  /// 0.26-0.42 s; docs/method_notes.md).
+  void startingPressure(std::vector<Real>& pf)
+  {
+    if (!scene.solver.warm_start)
+    {
+      std::fill(pf.begin(), pf.end(), Real(0));
+      return;
+    }
+    parallelFor(pf.size(), [&](std::size_t i) {
+      if (!(src[i] < 0 && rho[i] >= rho0)) pf[i] = 0;
+    });
+  }
+
   // --------------------------------------------------------------------------------- step
   template <BoundaryPressureMethod M>
   StepReport stepImpl()
@@ -869,18 +888,7 @@ struct Simulation::Impl
     {
       computeDensityRate();
       parallelFor(n, [&](std::size_t i) { src[i] = -std::max(drho[i], Real(0)) / Real(dt); });
-      // Warm start: the previous step's pressure only where the water is compressing now and
-      // is at or above rest density. A stale pressure on a particle that has since left the bulk
-      // (a splash, with one or two neighbours, a density near 0.3 rho0 and a tiny diagonal)
-      // would accelerate it by p/rho^2 before the two minimum iterations could bring it down:
-      // with the plain previous pressure the dam breaks blew up for every boundary method
-      // (particles at 100-200 m/s by 0.26-0.42 s; docs/method_notes.md).
-      if (scene.solver.warm_start)
-        parallelFor(n, [&](std::size_t i) {
-          if (!(src[i] < 0 && rho[i] >= rho0)) p_div[i] = 0;
-        });
-      else
-        std::fill(p_div.begin(), p_div.end(), Real(0));
+      startingPressure(p_div);
       rep.divergence_iterations =
           solve<M>(p_div, dt, false, scene.solver.divergence_error, scene.solver.min_divergence_iterations,
                    rep.divergence_error, rep.divergence_converged);
@@ -896,12 +904,7 @@ struct Simulation::Impl
     computeDensityRate();
     const Real inv_dt = Real(1.0 / dt), inv_dt2 = Real(1.0 / (dt * dt));
     parallelFor(n, [&](std::size_t i) { src[i] = (rho0 - rho[i]) * inv_dt2 - drho[i] * inv_dt; });
-    if (scene.solver.warm_start)  // as above: predicted density above rho0 and rho >= rho0
-      parallelFor(n, [&](std::size_t i) {
-        if (!(src[i] < 0 && rho[i] >= rho0)) p[i] = 0;
-      });
-    else
-      std::fill(p.begin(), p.end(), Real(0));
+    startingPressure(p);
     rep.density_iterations = solve<M>(p, dt, true, scene.solver.density_error, scene.solver.min_iterations,
                                       rep.density_error, rep.density_converged);
     accumulateBodyForces<M>(p, fsum);

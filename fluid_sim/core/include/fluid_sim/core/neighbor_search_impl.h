@@ -36,21 +36,27 @@ void buildNeighborLists(const std::vector<Vec3>& queries, const UniformGrid& gri
   }
   auto& block_used = out.scratch_used;
   block_used.resize(std::max(block_used.size(), blocks));
-  // Structure-of-arrays copy of the points, so that one range's distances are a vector loop.
+#if defined(__AVX512F__)
+  constexpr bool kVector = std::is_same_v<Real, float>;
+#else
+  constexpr bool kVector = false;
+#endif
+  // The vector path reads the points as x, y, z arrays (one range's distances are then a vector
+  // loop); the scalar path reads sorted_points directly and needs no copy.
   const std::size_t m = sorted_points.size();
   auto& soa = out.scratch_soa;
-  soa.resize(3 * m);
-  Real* const px = soa.data();
-  Real* const py = px + m;
-  Real* const pz = py + m;
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, m, 4096), [&](const tbb::blocked_range<std::size_t>& r) {
-    for (std::size_t k = r.begin(); k != r.end(); ++k)
-    {
-      px[k] = sorted_points[k].x();
-      py[k] = sorted_points[k].y();
-      pz[k] = sorted_points[k].z();
-    }
-  });
+  if constexpr (kVector)
+  {
+    soa.resize(3 * m);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, m, 4096), [&](const tbb::blocked_range<std::size_t>& r) {
+      for (std::size_t k = r.begin(); k != r.end(); ++k)
+      {
+        soa[k] = sorted_points[k].x();
+        soa[m + k] = sorted_points[k].y();
+        soa[2 * m + k] = sorted_points[k].z();
+      }
+    });
+  }
   const Index* const id = ids.empty() ? nullptr : ids.data();
   constexpr std::size_t kSlack = 16;  // the vector path stores whole vectors past the cursor
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, blocks, 1), [&](const tbb::blocked_range<std::size_t>& rb) {
@@ -75,8 +81,11 @@ void buildNeighborLists(const std::vector<Vec3>& queries, const UniformGrid& gri
           Index* const out_j = bi.data();
           Real* const out_d2 = bf.data();
 #if defined(__AVX512F__)
-          if constexpr (std::is_same_v<Real, float>)
+          if constexpr (kVector)
           {
+            const float* const px = soa.data();
+            const float* const py = px + m;
+            const float* const pz = py + m;
             // 16 candidates at a time: distances, a hit mask, and the hits compressed in
             // registers and stored as whole vectors (the memory form of vpcompress is slow on
             // some cores); the cursor advances by the number of hits.
@@ -109,7 +118,7 @@ void buildNeighborLists(const std::vector<Vec3>& queries, const UniformGrid& gri
           // initial lattice at the same candidate count.
           for (Index k = begin; k < end; ++k)
           {
-            const Real d2 = (xi - Vec3(px[k], py[k], pz[k])).squaredNorm();
+            const Real d2 = (xi - sorted_points[k]).squaredNorm();
             const Index j = id ? id[k] : k;
             out_j[used] = j;
             out_d2[used] = d2;
