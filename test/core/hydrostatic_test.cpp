@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 
 #include "fluid_sim/core/simulation.h"
 
@@ -180,6 +181,8 @@ TEST_P(Rest, BlockAtRestComesToRest)
     peak_rms = std::max(peak_rms, rms);
     if (sim.time() > 2.5) late_max = std::max(late_max, r.max_speed);
   }
+  std::printf("%s: max speed after 2.5 s %.4f m/s; rms speed %.4f m/s at 3 s, start-up peak %.4f m/s\n",
+              toString(GetParam()), late_max, rms, peak_rms);
   EXPECT_LT(late_max, 0.05) << toString(GetParam());
   EXPECT_LT(rms, peak_rms / 3) << toString(GetParam()) << ": rms speed " << rms << " m/s, start-up peak " << peak_rms;
   EXPECT_EQ(sim.numFluidParticles(), n);

@@ -63,6 +63,38 @@ TEST(NeighborSearch, SelfQueryEqualsBruteForceAfterSorting)
       EXPECT_FLOAT_EQ(lists.factor[k], (sorted[i] - sorted[lists.index[k]]).squaredNorm());
 }
 
+TEST(NeighborSearch, SecondValuePerPairComesFromItsOwnFunction)
+{
+  // The simulation stores W(r) beside grad W(r)/r; both must belong to the same pair, also after
+  // a rebuild with fewer pairs (the staging buffers are reused) and across block boundaries.
+  const std::vector<Vec3> pts = randomPoints(3000, 4);
+  const Real r = Real(0.06);
+  UniformGrid grid(Vec3d(-0.5, -0.5, -0.5), Vec3d(0.3, 0.3, 0.3), r, 1);
+  grid.build(pts);
+  std::vector<Vec3> sorted(grid.numInside());
+  for (std::size_t k = 0; k < sorted.size(); ++k) sorted[k] = pts[grid.order()[k]];
+  NeighborLists lists;
+  for (Real radius : {r, Real(0.7) * r})
+  {
+    buildNeighborLists(
+        sorted, grid, sorted, {}, radius, true, [](Real d2) { return d2; }, [](Real d2) { return Real(2) * d2 + 1; },
+        lists);
+    EXPECT_EQ(rowsOf(lists), bruteForce(sorted, sorted, radius, true));
+    ASSERT_EQ(lists.weight.size(), lists.pairs());
+    for (std::size_t i = 0; i < lists.rows(); ++i)
+      for (Index k = lists.offset[i]; k < lists.offset[i + 1]; ++k)
+      {
+        const Real d2 = (sorted[i] - sorted[lists.index[k]]).squaredNorm();
+        EXPECT_FLOAT_EQ(lists.factor[k], d2);
+        EXPECT_FLOAT_EQ(lists.weight[k], Real(2) * d2 + 1);
+      }
+  }
+  // Built again without a second function, the lists carry none.
+  buildNeighborLists(
+      sorted, grid, sorted, {}, r, true, [](Real d2) { return d2; }, lists);
+  EXPECT_TRUE(lists.weight.empty());
+}
+
 TEST(NeighborSearch, CrossQueryWithIdsAndLargerRadiusEqualsBruteForce)
 {
   const std::vector<Vec3> pts = randomPoints(2000, 2);

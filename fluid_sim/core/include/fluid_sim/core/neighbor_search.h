@@ -78,15 +78,18 @@ private:
 };
 
 /// Compressed rows of neighbours: row i holds index[offset[i] .. offset[i+1]) and, per pair, a
-/// scalar `factor` whose meaning the builder defines (e.g. dW/dr / r so that grad W = factor * r).
+/// scalar `factor` whose meaning the builder defines (e.g. dW/dr / r so that grad W = factor * r)
+/// and, when the builder was given a second function, a second scalar `weight` (e.g. W(r)).
 struct NeighborLists
 {
   std::vector<Index> offset;  // size rows + 1
   std::vector<Index> index;
   std::vector<Real> factor;
+  std::vector<Real> weight;  // empty unless built with a PairWeight
   // Per-block staging reused from step to step (kept here so that rebuilding allocates nothing).
   std::vector<std::vector<Index>> scratch_index;
   std::vector<std::vector<Real>> scratch_factor;
+  std::vector<std::vector<Real>> scratch_weight;
   std::vector<std::size_t> scratch_used;  // entries in use per block
   std::vector<Real> scratch_soa;          // the points as x, y, z arrays
 
@@ -109,6 +112,14 @@ template <class PairFactor>
 void buildNeighborLists(const std::vector<Vec3>& queries, const UniformGrid& grid,
                         const std::vector<Vec3>& sorted_points, const std::vector<Index>& ids, Real radius,
                         bool skip_self, PairFactor&& pairFactor, NeighborLists& out);
+
+/// As above, and also fills `out.weight` with `pairWeight(r2) -> Real` per pair: a second value
+/// computed while r^2 is at hand (e.g. W(r) for the density and XSPH passes, which then need no
+/// square root or position gather per pair).
+template <class PairFactor, class PairWeight>
+void buildNeighborLists(const std::vector<Vec3>& queries, const UniformGrid& grid,
+                        const std::vector<Vec3>& sorted_points, const std::vector<Index>& ids, Real radius,
+                        bool skip_self, PairFactor&& pairFactor, PairWeight&& pairWeight, NeighborLists& out);
 
 }  // namespace fluid_sim
 

@@ -14,11 +14,29 @@
 
 namespace fluid_sim
 {
+namespace detail
+{
+/// Stands for "no second value per pair" (NeighborLists::weight stays empty).
+struct NoPairWeight
+{
+};
+}  // namespace detail
+
 template <class PairFactor>
 void buildNeighborLists(const std::vector<Vec3>& queries, const UniformGrid& grid,
                         const std::vector<Vec3>& sorted_points, const std::vector<Index>& ids, Real radius,
                         bool skip_self, PairFactor&& pairFactor, NeighborLists& out)
 {
+  buildNeighborLists(queries, grid, sorted_points, ids, radius, skip_self, pairFactor, detail::NoPairWeight{}, out);
+}
+
+template <class PairFactor, class PairWeight>
+void buildNeighborLists(const std::vector<Vec3>& queries, const UniformGrid& grid,
+                        const std::vector<Vec3>& sorted_points, const std::vector<Index>& ids, Real radius,
+                        bool skip_self, PairFactor&& pairFactor, PairWeight&& pairWeight, NeighborLists& out)
+{
+  constexpr bool kWeight = !std::is_same_v<std::decay_t<PairWeight>, detail::NoPairWeight>;
+  (void)pairWeight;
   const std::size_t n = queries.size();
   constexpr std::size_t kBlock = 512;
   const std::size_t blocks = (n + kBlock - 1) / kBlock;
@@ -29,11 +47,13 @@ void buildNeighborLists(const std::vector<Vec3>& queries, const UniformGrid& gri
   // a single distance test per candidate instead of a count pass plus a fill pass.
   auto& block_index = out.scratch_index;
   auto& block_factor = out.scratch_factor;
+  auto& block_weight = out.scratch_weight;
   if (block_index.size() < blocks)
   {
     block_index.resize(blocks);
     block_factor.resize(blocks);
   }
+  if (kWeight && block_weight.size() < blocks) block_weight.resize(blocks);
   auto& block_used = out.scratch_used;
   block_used.resize(std::max(block_used.size(), blocks));
 #if defined(__AVX512F__)
@@ -126,7 +146,21 @@ void buildNeighborLists(const std::vector<Vec3>& queries, const UniformGrid& gri
           }
         });
         // Factors for the hits only (r^2 is overwritten by the factor in place).
-        for (std::size_t k = row_start; k < used; ++k) bf[k] = pairFactor(bf[k]);
+        if constexpr (kWeight)
+        {
+          auto& bw = block_weight[b];
+          if (bw.size() < bf.size()) bw.resize(bf.size());
+          for (std::size_t k = row_start; k < used; ++k)
+          {
+            const Real d2 = bf[k];
+            bw[k] = pairWeight(d2);
+            bf[k] = pairFactor(d2);
+          }
+        }
+        else
+        {
+          for (std::size_t k = row_start; k < used; ++k) bf[k] = pairFactor(bf[k]);
+        }
         out.offset[i + 1] = Index(used - row_start);
       }
       block_used[b] = used;
@@ -135,12 +169,17 @@ void buildNeighborLists(const std::vector<Vec3>& queries, const UniformGrid& gri
   for (std::size_t i = 0; i < n; ++i) out.offset[i + 1] += out.offset[i];
   out.index.resize(out.offset[n]);
   out.factor.resize(out.offset[n]);
+  if constexpr (kWeight)
+    out.weight.resize(out.offset[n]);
+  else
+    out.weight.clear();
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, blocks, 1), [&](const tbb::blocked_range<std::size_t>& rb) {
     for (std::size_t b = rb.begin(); b != rb.end(); ++b)
     {
       const std::size_t start = out.offset[b * kBlock];
       std::copy_n(block_index[b].begin(), block_used[b], out.index.begin() + start);
       std::copy_n(block_factor[b].begin(), block_used[b], out.factor.begin() + start);
+      if constexpr (kWeight) std::copy_n(block_weight[b].begin(), block_used[b], out.weight.begin() + start);
     }
   });
 }
