@@ -168,6 +168,12 @@ TEST_P(Rest, BlockAtRestComesToRest)
   // A 0.2 m block starts without pressure and compresses under its weight; the start-up
   // transient (max speeds ~0.07 m/s) must decay, not grow. sqrt(g H) = 1.4 m/s is the speed scale
   // of any motion the column could start.
+  // The late maximum is one particle slipping through a rearrangement of the lattice inside the
+  // water (seen at 4 cm depth, 3 cm/s for 70 ms), so its value depends on rounding: over
+  // dt 0.9-1.1 ms and equivalent rewrites of the solver loops it ranged 0.021-0.056 m/s (sph)
+  // and 0.021-0.047 m/s (mls) while the rms speed stayed 3.5-5.5 mm/s and the 99th percentile
+  // 1.4-2.2 cm/s. A failure just above 0.05 after a change that only reorders floating-point
+  // operations is that spread, not a new instability; a growing rms is.
   Simulation sim(column(GetParam(), 0.2, 0.2));
   const std::size_t n = sim.numFluidParticles();
   double peak_rms = 0.0, late_max = 0.0, rms = 0.0;
