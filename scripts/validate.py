@@ -49,7 +49,7 @@ KNOWN = {
     (6, "drum", "mls"): "MLS has no stable dt on the drum (the paper reports the opposite); likely the unbounded "
                         "MLS extrapolation from sparse, one-sided neighbourhoods (docs/validation.md)",
     (6, "deep", "mirroring"): "mirroring blows up in the deep column's start at every dt (known mirroring problem)",
-    (2, "mls"): "not reproduced: the turning wall spins the water up with MLS too, at about 60 % of SPH's rate "
+    (2, "mls"): "not reproduced: the turning wall spins the water up with MLS too, at 60-80 % of SPH's rate "
                 "(docs/validation.md, case 2)",
     (3, "mirroring"): "mirroring does not come to rest and reads ~15 % high (docs/method_notes.md); in the deep "
                       "column it blows up at 1 cm",
