@@ -127,11 +127,11 @@ struct Simulation::Impl
   std::vector<Real> p_total;  // p + p_div of the last step (output only)
   // Per-step scratch (recomputed every step, not reordered).
   std::vector<Real> A, drho, src, kappa, err;
-  // Positions and pressure accelerations padded to 4 components (the 4th is 0) for the solver's
-  // pair loops: a neighbour's vector is then one packed load, and a subtraction and a multiply-add
-  // are one instruction each instead of three (m, m/s^2).
-  std::vector<Vec4, Eigen::aligned_allocator<Vec4>> x4, a4, v4;  // v4: padded copy of v, m/s
-  std::vector<Vec3> grad_b;                                      // sum_b psi_b grad W_ib
+  // Positions, velocities and pressure accelerations padded to 4 components (the 4th is 0) for
+  // the pair loops: a neighbour's vector is then one packed load, and a subtraction and a
+  // multiply-add are one instruction each instead of three (m, m/s, m/s^2).
+  std::vector<Vec4, Eigen::aligned_allocator<Vec4>> x4, a4, v4;
+  std::vector<Vec3> grad_b;  // sum_b psi_b grad W_ib
   std::vector<Vec3> tmp_vec;
   std::vector<Real> tmp_real;
   std::vector<Index> tmp_index;
@@ -423,10 +423,9 @@ struct Simulation::Impl
     reorder(rho, order, tmp_real);
     reorder(p, order, tmp_real);
     reorder(p_div, order, tmp_real);
-    x4.resize(n);
-    parallelFor(n, [&](std::size_t i) { x4[i] << x[i], Real(0); });
     // After reordering, the grid's sorted positions are the particle indices themselves.
-    (void)n;
+    x4.resize(n);  // the padded copy the solver's pair loops read
+    parallelFor(n, [&](std::size_t i) { x4[i] << x[i], Real(0); });
   }
 
   template <class T>
