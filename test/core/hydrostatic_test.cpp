@@ -158,6 +158,7 @@ TEST_P(Buoyancy, SubmergedCubeFeelsArchimedesForce)
   // on the CPU's floating-point path.
   const Averages avg = settleAndAverage(sim, 1.2, 0.4, width * width - side * side);
   const double archimedes = 1000.0 * kG * side * side * side;
+  std::printf("%s: cube force / (rho0 g V) = %.4f\n", toString(GetParam()), avg.body_force.z() / archimedes);
   EXPECT_NEAR(avg.body_force.z() / archimedes, 1.0, 0.05) << toString(GetParam()) << ": " << avg.body_force.transpose();
   EXPECT_NEAR(avg.body_force.x() / archimedes, 0.0, 0.05);
   EXPECT_NEAR(avg.body_force.y() / archimedes, 0.0, 0.05);
