@@ -74,6 +74,10 @@ TEST(NeighborSearch, SecondValuePerPairComesFromItsOwnFunction)
   std::vector<Vec3> sorted(grid.numInside());
   for (std::size_t k = 0; k < sorted.size(); ++k) sorted[k] = pts[grid.order()[k]];
   NeighborLists lists;
+  // First without a second function, so that the staging already exists when weights start.
+  buildNeighborLists(
+      sorted, grid, sorted, {}, r, true, [](Real d2) { return d2; }, lists);
+  EXPECT_TRUE(lists.weight.empty());
   for (Real radius : {r, Real(0.7) * r})
   {
     buildNeighborLists(

@@ -40,20 +40,25 @@ double msSince(Clock::time_point t0)
 
 constexpr std::size_t kGrain = 1024;  // fixed grain: deterministic reductions
 
-/// f(i) for i in [0, n) in parallel, in chunks that depend on n and kGrain only. With TBB's default
-/// (auto) partitioner the chunk boundaries follow work stealing, and the compiler's vectorised
-/// loop body and its scalar remainder need not round alike, so an element's result could change
-/// with the timing of the threads: two identical runs of bench_dam_break at 195 k particles
-/// parted at step 110, and 3 or 4 threads gave other results than 1 or 2 (docs/method_notes.md).
+/// body(range) over [0, n) in parallel, in chunks that depend on n and grain only. With TBB's
+/// default (auto) partitioner the chunk boundaries follow work stealing, and the compiler's
+/// vectorised loop body and its scalar remainder need not round alike, so an element's result
+/// could change with the timing of the threads: two identical runs of bench_dam_break at 195 k
+/// particles parted at step 110, and 3 or 4 threads gave other results than 1 or 2
+/// (docs/method_notes.md). Every parallel loop of the step goes through here.
+template <class Body>
+void parallelRanges(std::size_t n, std::size_t grain, Body&& body)
+{
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, grain), body, tbb::simple_partitioner());
+}
+
+/// f(i) for i in [0, n) in parallel (fixed chunks, see parallelRanges).
 template <class F>
 void parallelFor(std::size_t n, F&& f)
 {
-  tbb::parallel_for(
-      tbb::blocked_range<std::size_t>(0, n, kGrain),
-      [&](const tbb::blocked_range<std::size_t>& r) {
-        for (std::size_t i = r.begin(); i != r.end(); ++i) f(i);
-      },
-      tbb::simple_partitioner());
+  parallelRanges(n, kGrain, [&](const tbb::blocked_range<std::size_t>& r) {
+    for (std::size_t i = r.begin(); i != r.end(); ++i) f(i);
+  });
 }
 
 /// Deterministic sum over [0, n) of f(i) (double).
@@ -578,35 +583,32 @@ struct Simulation::Impl
     std::fill(pb_const.begin(), pb_const.end(), 0);
     const std::size_t na = active_list.size();
     std::vector<std::size_t> fit_kind(na, 0);
-    tbb::parallel_for(
-        tbb::blocked_range<std::size_t>(0, na, 256),
-        [&](const tbb::blocked_range<std::size_t>& r) {
-          std::vector<Real> w;
-          for (std::size_t q = r.begin(); q != r.end(); ++q)
-          {
-            const Index b = active_list[q];
-            const Index begin = bf.offset[q];
-            const int cnt = int(bf.offset[q + 1] - begin);
-            const Index* idx = bf.index.data() + begin;
-            Real* c = bf.factor.data() + begin;
-            auto pos = [&](int k) -> const Vec3& { return x[idx[k]]; };
-            if (m == BoundaryPressureMethod::Mls)
-            {
-              w.resize(cnt);
-              for (int k = 0; k < cnt; ++k) w[k] = c[k] * (mass / rho[idx[k]]);  // V_f W_bf (Eq. 7-14 weights)
-              const MlsFit fit = mlsCoefficients(xb[b], cnt, pos, w.data(), scene.solver.mls_fit_radius * scene.spacing,
-                                                 scene.solver.mls_eigen_tolerance, scene.solver.mls_singular, c);
-              fit_kind[q] = std::size_t(fit);
-            }
-            else
-            {
-              w.assign(c, c + cnt);
-              auto dens = [&](int k) { return rho[idx[k]]; };
-              sphCoefficients(xb[b], cnt, pos, dens, w.data(), Vec3(gravity - ab[b]), c, pb_const[b]);
-            }
-          }
-        },
-        tbb::simple_partitioner());  // fixed chunks, as parallelFor
+    parallelRanges(na, 256, [&](const tbb::blocked_range<std::size_t>& r) {
+      std::vector<Real> w;
+      for (std::size_t q = r.begin(); q != r.end(); ++q)
+      {
+        const Index b = active_list[q];
+        const Index begin = bf.offset[q];
+        const int cnt = int(bf.offset[q + 1] - begin);
+        const Index* idx = bf.index.data() + begin;
+        Real* c = bf.factor.data() + begin;
+        auto pos = [&](int k) -> const Vec3& { return x[idx[k]]; };
+        if (m == BoundaryPressureMethod::Mls)
+        {
+          w.resize(cnt);
+          for (int k = 0; k < cnt; ++k) w[k] = c[k] * (mass / rho[idx[k]]);  // V_f W_bf (Eq. 7-14 weights)
+          const MlsFit fit = mlsCoefficients(xb[b], cnt, pos, w.data(), scene.solver.mls_fit_radius * scene.spacing,
+                                             scene.solver.mls_eigen_tolerance, scene.solver.mls_singular, c);
+          fit_kind[q] = std::size_t(fit);
+        }
+        else
+        {
+          w.assign(c, c + cnt);
+          auto dens = [&](int k) { return rho[idx[k]]; };
+          sphCoefficients(xb[b], cnt, pos, dens, w.data(), Vec3(gravity - ab[b]), c, pb_const[b]);
+        }
+      }
+    });
     mls_fallbacks = mls_reduced = 0;
     if (m == BoundaryPressureMethod::Mls)
       for (std::size_t k : fit_kind)
@@ -629,36 +631,33 @@ struct Simulation::Impl
     // 5 s: 1.036-1.045, unchanged), while 5 s still keeps MLS stable at 2 ms in the cylinder dam
     // break (unlimited: a particle shot off at 0.28 s).
     const Real reach = Real(5.0 * scene.spacing) * rho0;
-    tbb::parallel_for(
-        tbb::blocked_range<std::size_t>(0, active_list.size(), 512),
-        [&](const tbb::blocked_range<std::size_t>& r) {
-          for (std::size_t q = r.begin(); q != r.end(); ++q)
-          {
-            const Index b = active_list[q];
-            Real value = hydrostatic ? pb_const[b] : Real(0);
-            const Index begin = bf.offset[q], end = bf.offset[q + 1];
-            if (begin == end)
-            {
-              pb[b] = 0;  // no fluid neighbour (METHOD.md choice 5)
-              continue;
-            }
-            Real lo = pf[bf.index[begin]], hi = lo;
-            for (Index k = begin; k < end; ++k)
-            {
-              const Real p = pf[bf.index[k]];
-              value += bf.factor[k] * p;
-              lo = std::min(lo, p);
-              hi = std::max(hi, p);
-            }
-            if (limit)
-            {
-              const Real widen = reach * (gravity - ab[b]).norm();
-              value = std::clamp(value, lo - widen, hi + widen);
-            }
-            pb[b] = clamp ? std::max(value, Real(0)) : value;
-          }
-        },
-        tbb::simple_partitioner());
+    parallelRanges(active_list.size(), 512, [&](const tbb::blocked_range<std::size_t>& r) {
+      for (std::size_t q = r.begin(); q != r.end(); ++q)
+      {
+        const Index b = active_list[q];
+        Real value = hydrostatic ? pb_const[b] : Real(0);
+        const Index begin = bf.offset[q], end = bf.offset[q + 1];
+        if (begin == end)
+        {
+          pb[b] = 0;  // no fluid neighbour (METHOD.md choice 5)
+          continue;
+        }
+        Real lo = pf[bf.index[begin]], hi = lo;
+        for (Index k = begin; k < end; ++k)
+        {
+          const Real p = pf[bf.index[k]];
+          value += bf.factor[k] * p;
+          lo = std::min(lo, p);
+          hi = std::max(hi, p);
+        }
+        if (limit)
+        {
+          const Real widen = reach * (gravity - ab[b]).norm();
+          value = std::clamp(value, lo - widen, hi + widen);
+        }
+        pb[b] = clamp ? std::max(value, Real(0)) : value;
+      }
+    });
   }
 
   /// Pressure acceleration a^p (Eq. 1, or Eq. 2 for mirroring) from pressures pf; m/s^2. With

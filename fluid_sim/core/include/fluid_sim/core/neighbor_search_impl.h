@@ -84,6 +84,10 @@ void buildNeighborLists(const std::vector<Vec3>& queries, const UniformGrid& gri
     {
       auto& bi = block_index[b];
       auto& bf = block_factor[b];
+      // The weight staging follows the index staging's size (it may have been grown by an
+      // earlier build without weights); below they grow together.
+      if constexpr (kWeight)
+        if (block_weight[b].size() < bi.size()) block_weight[b].resize(bi.size());
       std::size_t used = 0;
       const std::size_t i_end = std::min(n, (b + 1) * kBlock);
       for (std::size_t i = b * kBlock; i < i_end; ++i)
@@ -97,6 +101,7 @@ void buildNeighborLists(const std::vector<Vec3>& queries, const UniformGrid& gri
           {
             bi.resize(std::max(2 * bi.size(), used + len + kSlack + 256));
             bf.resize(bi.size());
+            if constexpr (kWeight) block_weight[b].resize(bi.size());
           }
           Index* const out_j = bi.data();
           Real* const out_d2 = bf.data();
@@ -149,7 +154,6 @@ void buildNeighborLists(const std::vector<Vec3>& queries, const UniformGrid& gri
         if constexpr (kWeight)
         {
           auto& bw = block_weight[b];
-          if (bw.size() < bf.size()) bw.resize(bf.size());
           for (std::size_t k = row_start; k < used; ++k)
           {
             const Real d2 = bf[k];
