@@ -55,12 +55,12 @@ TEST(NeighborSearch, SelfQueryEqualsBruteForceAfterSorting)
     ASSERT_EQ(grid.order()[k], k) << "sorting a sorted set must be the identity";
   NeighborLists lists;
   buildNeighborLists(
-      sorted, grid, sorted, {}, r, true, [](Real d2) { return d2; }, lists);
+      sorted, grid, sorted, {}, r, true, [](Real d2) { return d2; }, NoPairValue{}, lists);
   EXPECT_EQ(rowsOf(lists), bruteForce(sorted, sorted, r, true));
   // Factors are the ones the callback produced for that pair.
   for (std::size_t i = 0; i < lists.rows(); ++i)
     for (Index k = lists.offset[i]; k < lists.offset[i + 1]; ++k)
-      EXPECT_FLOAT_EQ(lists.factor[k], (sorted[i] - sorted[lists.index[k]]).squaredNorm());
+      EXPECT_FLOAT_EQ(lists.grad_factor[k], (sorted[i] - sorted[lists.index[k]]).squaredNorm());
 }
 
 TEST(NeighborSearch, SecondValuePerPairComesFromItsOwnFunction)
@@ -76,7 +76,7 @@ TEST(NeighborSearch, SecondValuePerPairComesFromItsOwnFunction)
   NeighborLists lists;
   // First without a second function, so that the staging already exists when weights start.
   buildNeighborLists(
-      sorted, grid, sorted, {}, r, true, [](Real d2) { return d2; }, lists);
+      sorted, grid, sorted, {}, r, true, [](Real d2) { return d2; }, NoPairValue{}, lists);
   EXPECT_TRUE(lists.weight.empty());
   for (Real radius : {r, Real(0.7) * r})
   {
@@ -89,14 +89,23 @@ TEST(NeighborSearch, SecondValuePerPairComesFromItsOwnFunction)
       for (Index k = lists.offset[i]; k < lists.offset[i + 1]; ++k)
       {
         const Real d2 = (sorted[i] - sorted[lists.index[k]]).squaredNorm();
-        EXPECT_FLOAT_EQ(lists.factor[k], d2);
+        EXPECT_FLOAT_EQ(lists.grad_factor[k], d2);
         EXPECT_FLOAT_EQ(lists.weight[k], Real(2) * d2 + 1);
       }
   }
   // Built again without a second function, the lists carry none.
   buildNeighborLists(
-      sorted, grid, sorted, {}, r, true, [](Real d2) { return d2; }, lists);
+      sorted, grid, sorted, {}, r, true, [](Real d2) { return d2; }, NoPairValue{}, lists);
   EXPECT_TRUE(lists.weight.empty());
+  // Weights alone (the boundary-fluid lists of the pressure extrapolation): no factors.
+  buildNeighborLists(
+      sorted, grid, sorted, {}, r, true, NoPairValue{}, [](Real d2) { return Real(3) * d2; }, lists);
+  EXPECT_EQ(rowsOf(lists), bruteForce(sorted, sorted, r, true));
+  EXPECT_TRUE(lists.grad_factor.empty());
+  ASSERT_EQ(lists.weight.size(), lists.pairs());
+  for (std::size_t i = 0; i < lists.rows(); ++i)
+    for (Index k = lists.offset[i]; k < lists.offset[i + 1]; ++k)
+      EXPECT_FLOAT_EQ(lists.weight[k], Real(3) * (sorted[i] - sorted[lists.index[k]]).squaredNorm());
 }
 
 TEST(NeighborSearch, CrossQueryWithIdsAndLargerRadiusEqualsBruteForce)
@@ -112,7 +121,7 @@ TEST(NeighborSearch, CrossQueryWithIdsAndLargerRadiusEqualsBruteForce)
   {
     NeighborLists lists;
     buildNeighborLists(
-        queries, grid, sorted, grid.order(), r, false, [](Real) { return Real(1); }, lists);
+        queries, grid, sorted, grid.order(), r, false, [](Real) { return Real(1); }, NoPairValue{}, lists);
     EXPECT_EQ(rowsOf(lists), bruteForce(queries, pts, r, false)) << "radius " << r;
   }
 }

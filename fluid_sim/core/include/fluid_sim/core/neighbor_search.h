@@ -29,10 +29,6 @@ public:
   {
     return order_;
   }
-  const std::vector<Index>& cells() const
-  {
-    return cell_of_point_;
-  }  // per input point (before sorting)
   std::size_t numInside() const
   {
     return num_inside_;
@@ -77,15 +73,16 @@ private:
   std::size_t num_inside_ = 0;
 };
 
-/// Compressed rows of neighbours: row i holds index[offset[i] .. offset[i+1]) and, per pair, a
-/// scalar `factor` whose meaning the builder defines (e.g. dW/dr / r so that grad W = factor * r)
-/// and, when the builder was given a second function, a second scalar `weight` (e.g. W(r)).
+/// Compressed rows of neighbours: row i holds index[offset[i] .. offset[i+1]) and, per pair, up to
+/// two kernel values computed from the squared distance by the functions the builder was given:
+/// `grad_factor`, (dW/dr)/r (1/m^5) so that grad W(x_i - x_j) = grad_factor * (x_i - x_j), and
+/// `weight`, W(r) (1/m^3). Either is empty when the builder was not asked for it.
 struct NeighborLists
 {
   std::vector<Index> offset;  // size rows + 1
   std::vector<Index> index;
-  std::vector<Real> factor;
-  std::vector<Real> weight;  // empty unless built with a PairWeight
+  std::vector<Real> grad_factor;  // 1/m^5, empty unless built with a PairGradFactor
+  std::vector<Real> weight;       // 1/m^3, empty unless built with a PairWeight
   // Per-block staging reused from step to step (kept here so that rebuilding allocates nothing).
   std::vector<std::vector<Index>> scratch_index;
   std::vector<std::vector<Real>> scratch_factor;
@@ -103,23 +100,23 @@ struct NeighborLists
   }
 };
 
+/// Stands for "no such value per pair" in buildNeighborLists (the list's array stays empty).
+struct NoPairValue
+{
+};
+
 /// Builds `out` for the `queries` against the points in `grid` (whose sorted positions are
 /// `sorted_points`, i.e. points in grid order; `ids` maps a sorted position to the stored index, or
-/// is empty for identity). `pairFactor(r2) -> Real` gives the stored factor from the squared distance (m^2). With
-/// `skip_self`, query i never lists point i (queries and points are the same set, identity ids).
-/// Parallel over queries; the result does not depend on the thread count.
-template <class PairFactor>
+/// is empty for identity), all pairs closer than `radius` (m). `pairGradFactor(r2) -> Real` gives
+/// out.grad_factor and `pairWeight(r2) -> Real` out.weight from the squared distance (m^2); either
+/// may be NoPairValue{}. Computing both while r^2 is at hand spares the density and XSPH passes a
+/// square root and a position gather per pair. With `skip_self`, query i never lists point i
+/// (queries and points are the same set, identity ids). Parallel over queries; the result does not
+/// depend on the thread count.
+template <class PairGradFactor, class PairWeight>
 void buildNeighborLists(const std::vector<Vec3>& queries, const UniformGrid& grid,
                         const std::vector<Vec3>& sorted_points, const std::vector<Index>& ids, Real radius,
-                        bool skip_self, PairFactor&& pairFactor, NeighborLists& out);
-
-/// As above, and also fills `out.weight` with `pairWeight(r2) -> Real` per pair: a second value
-/// computed while r^2 is at hand (e.g. W(r) for the density and XSPH passes, which then need no
-/// square root or position gather per pair).
-template <class PairFactor, class PairWeight>
-void buildNeighborLists(const std::vector<Vec3>& queries, const UniformGrid& grid,
-                        const std::vector<Vec3>& sorted_points, const std::vector<Index>& ids, Real radius,
-                        bool skip_self, PairFactor&& pairFactor, PairWeight&& pairWeight, NeighborLists& out);
+                        bool skip_self, PairGradFactor&& pairGradFactor, PairWeight&& pairWeight, NeighborLists& out);
 
 }  // namespace fluid_sim
 

@@ -14,28 +14,15 @@
 
 namespace fluid_sim
 {
-namespace detail
-{
-/// Stands for "no second value per pair" (NeighborLists::weight stays empty).
-struct NoPairWeight
-{
-};
-}  // namespace detail
-
-template <class PairFactor>
+template <class PairGradFactor, class PairWeight>
 void buildNeighborLists(const std::vector<Vec3>& queries, const UniformGrid& grid,
                         const std::vector<Vec3>& sorted_points, const std::vector<Index>& ids, Real radius,
-                        bool skip_self, PairFactor&& pairFactor, NeighborLists& out)
+                        bool skip_self, PairGradFactor&& pairGradFactor, PairWeight&& pairWeight, NeighborLists& out)
 {
-  buildNeighborLists(queries, grid, sorted_points, ids, radius, skip_self, pairFactor, detail::NoPairWeight{}, out);
-}
-
-template <class PairFactor, class PairWeight>
-void buildNeighborLists(const std::vector<Vec3>& queries, const UniformGrid& grid,
-                        const std::vector<Vec3>& sorted_points, const std::vector<Index>& ids, Real radius,
-                        bool skip_self, PairFactor&& pairFactor, PairWeight&& pairWeight, NeighborLists& out)
-{
-  constexpr bool kWeight = !std::is_same_v<std::decay_t<PairWeight>, detail::NoPairWeight>;
+  constexpr bool kFactor = !std::is_same_v<std::decay_t<PairGradFactor>, NoPairValue>;
+  constexpr bool kWeight = !std::is_same_v<std::decay_t<PairWeight>, NoPairValue>;
+  static_assert(kFactor || kWeight, "buildNeighborLists: ask for at least one value per pair");
+  (void)pairGradFactor;
   (void)pairWeight;
   const std::size_t n = queries.size();
   constexpr std::size_t kBlock = 512;
@@ -44,7 +31,8 @@ void buildNeighborLists(const std::vector<Vec3>& queries, const UniformGrid& gri
   const Real r2max = radius * radius;
   const int reach = int(std::ceil(double(radius) / grid.cellSize() - 1e-9));
   // One pass over candidates per block into block-local lists, then one copy into the CSR rows:
-  // a single distance test per candidate instead of a count pass plus a fill pass.
+  // a single distance test per candidate instead of a count pass plus a fill pass. The factor
+  // staging first holds r^2 (m^2) of every hit.
   auto& block_index = out.scratch_index;
   auto& block_factor = out.scratch_factor;
   auto& block_weight = out.scratch_weight;
@@ -150,20 +138,25 @@ void buildNeighborLists(const std::vector<Vec3>& queries, const UniformGrid& gri
             used += std::size_t((d2 < r2max) & (j != self));
           }
         });
-        // Factors for the hits only (r^2 is overwritten by the factor in place).
-        if constexpr (kWeight)
+        // Values for the hits only (r^2 is overwritten by the factor in place).
+        if constexpr (kWeight && kFactor)
         {
           auto& bw = block_weight[b];
           for (std::size_t k = row_start; k < used; ++k)
           {
             const Real d2 = bf[k];
             bw[k] = pairWeight(d2);
-            bf[k] = pairFactor(d2);
+            bf[k] = pairGradFactor(d2);
           }
+        }
+        else if constexpr (kWeight)
+        {
+          auto& bw = block_weight[b];
+          for (std::size_t k = row_start; k < used; ++k) bw[k] = pairWeight(bf[k]);
         }
         else
         {
-          for (std::size_t k = row_start; k < used; ++k) bf[k] = pairFactor(bf[k]);
+          for (std::size_t k = row_start; k < used; ++k) bf[k] = pairGradFactor(bf[k]);
         }
         out.offset[i + 1] = Index(used - row_start);
       }
@@ -172,7 +165,10 @@ void buildNeighborLists(const std::vector<Vec3>& queries, const UniformGrid& gri
   });
   for (std::size_t i = 0; i < n; ++i) out.offset[i + 1] += out.offset[i];
   out.index.resize(out.offset[n]);
-  out.factor.resize(out.offset[n]);
+  if constexpr (kFactor)
+    out.grad_factor.resize(out.offset[n]);
+  else
+    out.grad_factor.clear();
   if constexpr (kWeight)
     out.weight.resize(out.offset[n]);
   else
@@ -182,7 +178,7 @@ void buildNeighborLists(const std::vector<Vec3>& queries, const UniformGrid& gri
     {
       const std::size_t start = out.offset[b * kBlock];
       std::copy_n(block_index[b].begin(), block_used[b], out.index.begin() + start);
-      std::copy_n(block_factor[b].begin(), block_used[b], out.factor.begin() + start);
+      if constexpr (kFactor) std::copy_n(block_factor[b].begin(), block_used[b], out.grad_factor.begin() + start);
       if constexpr (kWeight) std::copy_n(block_weight[b].begin(), block_used[b], out.weight.begin() + start);
     }
   });

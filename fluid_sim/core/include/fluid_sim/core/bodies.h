@@ -1,0 +1,154 @@
+#pragma once
+// The boundary bodies: their shapes sampled once into particles in the body frame, their poses
+// (scripted motion, or poses handed in by the caller), velocities and accelerations (Eq. A17 of
+// docs/method.md), the boundary particles' world positions, velocities, accelerations and volumes
+// (Eq. A3), and the fluid's force and torque on each body (Eq. A12).
+
+#include <algorithm>
+#include <cstdint>
+#include <vector>
+
+#include "fluid_sim/core/scene_config.h"
+#include "fluid_sim/core/types.h"
+
+namespace fluid_sim
+{
+/// One rigid body and its motion.
+struct Body
+{
+  BoundaryConfig config;
+  std::vector<Vec3d> local;        // m, boundary particles in the body frame
+  std::size_t offset = 0;          // index of its first particle in BoundaryParticles
+  Pose pose;                       // body -> world at the current time
+  Pose initial_pose;               // at t = 0
+  Vec3d v_origin = Vec3d::Zero();  // m/s, velocity of the body origin (world)
+  Vec3d omega = Vec3d::Zero();     // rad/s, angular velocity (world)
+  Vec3d a_origin = Vec3d::Zero();  // m/s^2, acceleration of the body origin (world)
+  Vec3d alpha = Vec3d::Zero();     // rad/s^2, angular acceleration (world)
+  bool moving = false;             // scripted motion or externally posed: re-posed every step
+
+  // Externally posed bodies: the pose handed in for the next step.
+  bool pose_pending = false;
+  bool pose_jump = false;  // the pending pose is a placement, not a motion (no velocity from it)
+  bool has_previous_pose = false;
+  Pose pending_pose;
+  double last_pose_time = 0.0;  // s, simulated time of the current pose
+
+  // What the fluid did to the body in the last step.
+  Vec3d force = Vec3d::Zero();   // N, world frame
+  Vec3d torque = Vec3d::Zero();  // N m, world frame, about the body origin
+  std::size_t contact = 0;       // boundary particles with a fluid neighbour
+  double max_pressure = 0.0;     // Pa, largest boundary pressure used (density solve)
+};
+
+/// Per-body sums of the fluid's force (N) and torque about the body origin (N m), world frame.
+struct BodyWrenches
+{
+  std::vector<Vec3d> force;
+  std::vector<Vec3d> torque;
+
+  explicit BodyWrenches(std::size_t bodies = 0) : force(bodies, Vec3d::Zero()), torque(bodies, Vec3d::Zero()) {}
+  void add(const BodyWrenches& other)
+  {
+    for (std::size_t k = 0; k < force.size(); ++k)
+    {
+      force[k] += other.force[k];
+      torque[k] += other.torque[k];
+    }
+  }
+};
+
+/// All bodies and their boundary particles (structure of arrays, bodies one after another).
+class BodySet
+{
+public:
+  /// Samples every boundary of the scene (boundary_sampling.h), computes the particle volumes
+  /// (Eq. A3) and poses each body at t = 0.
+  explicit BodySet(const SceneConfig& scene);
+
+  std::size_t size() const
+  {
+    return bodies_.size();
+  }
+  Body& operator[](std::size_t k)
+  {
+    return bodies_[k];
+  }
+  const Body& operator[](std::size_t k) const
+  {
+    return bodies_[k];
+  }
+  const std::vector<Body>& bodies() const
+  {
+    return bodies_;
+  }
+  std::size_t numParticles() const
+  {
+    return x.size();
+  }
+
+  /// Moves every moving body to its pose at `time` (s) and rewrites its particles (Eq. A17).
+  void poseMoving(double time);
+
+  /// Stores the caller's pose of an externally posed body for the next poseMoving().
+  void setPendingPose(std::size_t index, const Pose& pose, bool jump);
+
+  /// Counts, per body, the boundary particles with a fluid neighbour in `fluid_boundary` (rows:
+  /// fluid particles, entries: boundary particles) and the largest boundary pressure among them,
+  /// `pressure_at(i, b)` (Pa), and stores `wrenches` as the bodies' forces of this step.
+  template <class Lists, class PressureAt>
+  void updateReports(const BodyWrenches& wrenches, const Lists& fluid_boundary, std::size_t fluid_count,
+                     PressureAt&& pressure_at);
+
+  /// Incremented whenever a particle position changes (the neighbour search rebuilds its
+  /// boundary grid then).
+  std::uint64_t positionsVersion() const
+  {
+    return version_;
+  }
+
+  // Boundary particles, world frame.
+  std::vector<Vec3> x;         // m, position
+  std::vector<Vec3> v;         // m/s, velocity
+  std::vector<Vec3> a;         // m/s^2, acceleration (SPH extrapolation's hydrostatic term, Eq. 3)
+  std::vector<Real> volume;    // m^3, V_b (Eq. A3)
+  std::vector<Index> body_of;  // index of the particle's body
+
+private:
+  void pose(Body& body, double time, bool force_write);
+  Pose scriptedPose(const Body& body, double time) const;
+
+  std::vector<Body> bodies_;
+  std::vector<std::uint8_t> contact_mark_;  // per boundary particle, scratch of updateReports
+  std::uint64_t version_ = 0;
+};
+
+template <class Lists, class PressureAt>
+void BodySet::updateReports(const BodyWrenches& wrenches, const Lists& fluid_boundary, std::size_t fluid_count,
+                            PressureAt&& pressure_at)
+{
+  for (std::size_t k = 0; k < bodies_.size(); ++k)
+  {
+    bodies_[k].force = wrenches.force[k];
+    bodies_[k].torque = wrenches.torque[k];
+    bodies_[k].contact = 0;
+    bodies_[k].max_pressure = 0.0;
+  }
+  if (bodies_.empty()) return;
+  // Serial: cheap, one pass over the fluid-boundary pairs.
+  contact_mark_.assign(x.size(), 0);
+  for (std::size_t i = 0; i < fluid_count; ++i)
+    for (Index k = fluid_boundary.offset[i]; k < fluid_boundary.offset[i + 1]; ++k)
+    {
+      const Index b = fluid_boundary.index[k];
+      Body& body = bodies_[body_of[b]];
+      body.max_pressure = std::max(body.max_pressure, double(pressure_at(i, b)));
+      if (!contact_mark_[b])
+      {
+        contact_mark_[b] = 1;
+        ++body.contact;
+      }
+    }
+}
+
+}  // namespace fluid_sim

@@ -1,0 +1,208 @@
+#pragma once
+// The three ways to give a boundary particle b its pressure p_b in the pressure acceleration
+// (Eq. 1 of docs/method.md), as types with one small interface that the DFSPH solver
+// (dfsph_solver.h) is compiled for, one solver per method, chosen once when the simulation is
+// built. No per-particle or per-pair code tests which method runs.
+//
+// The interface (every method has these members):
+//   void buildLists()                    after the step's neighbour search: what it needs besides
+//                                        the fluid-fluid and fluid-boundary lists
+//   void prepare()                       once per step, after the densities: what stays fixed
+//                                        during both solves (the extrapolation coefficients)
+//   void addDiagonalFeedback(A, gb, g)   what p_b's dependence on p_i adds to the diagonal (Eq. A4)
+//   void extrapolate(p, density_solve)   p_b from the fluid pressures p, before each evaluation
+//                                        of the pressure acceleration (both solves)
+//   addWallAcceleration<kRecord>(...)    the boundary term of Eq. 1 for one fluid particle
+//   Real wallPressure(b, p_i)            the p_b that fluid particle i sees at b (forces, Eq. A12)
+//   void report(StepReport&, bodies)     the method's counts for the step report
+//   boundaryPressures()                  Pa, per boundary particle (output)
+
+#include <atomic>
+#include <memory>
+#include <vector>
+
+#include "fluid_sim/core/bodies.h"
+#include "fluid_sim/core/fluid_constants.h"
+#include "fluid_sim/core/fluid_particles.h"
+#include "fluid_sim/core/neighborhoods.h"
+#include "fluid_sim/core/scene_config.h"
+#include "fluid_sim/core/simulation.h"
+
+namespace fluid_sim
+{
+/// What every method reads: the scene (its solver settings may change between steps), the
+/// fluid's constants, the particles and the step's neighbour lists.
+struct BoundaryPressureInputs
+{
+  const SceneConfig& scene;
+  const FluidConstants& constants;
+  const FluidParticles& fluid;
+  const BodySet& bodies;
+  const Neighborhoods& neighbors;
+};
+
+/// Mirroring (Eq. 2, Akinci 2012): p_b = p_i, evaluated per fluid particle; nothing is stored per
+/// boundary particle. Its p_b scales with p_i, so it adds to the diagonal.
+class MirroredBoundaryPressure
+{
+public:
+  explicit MirroredBoundaryPressure(const BoundaryPressureInputs& in)
+      : in_(in)
+      , inv_rho0_sq_(Real(1) / (in.constants.rho0 * in.constants.rho0))
+      , zero_(in.bodies.numParticles(), Real(0))
+  {
+  }
+
+  void buildLists() {}
+  void prepare() {}
+
+  /// Eq. A4: p_b = p_i adds (p_i/rho0^2) grad_b to a_i, so the diagonal gains -grad_b . gsum / rho0^2.
+  void addDiagonalFeedback(Real& diagonal, const Vec3& grad_b, const Vec3& gsum) const
+  {
+    const Real rho0 = in_.constants.rho0;
+    diagonal -= grad_b.dot(gsum) / (rho0 * rho0);
+  }
+
+  void extrapolate(const std::vector<Real>&, bool) {}
+
+  /// Eq. 2 in Eq. 1: (p_i/rho_i^2 + p_i/rho0^2) sum_b psi_b grad W_ib, with grad_b = sum_b psi_b
+  /// grad W_ib (kg/m^4) and p_over_rho2 = p_i/rho_i^2. With kRecord also adds wall_dt (s) times
+  /// the p_b part to wall_dv (m/s; the wall-work diagnostic).
+  template <bool kRecord>
+  void addWallAcceleration(std::size_t, const Vec3&, Real p_over_rho2, Real p_i, const Vec3& grad_b, Real wall_dt,
+                           Vec3& acc, Vec3& wall_dv) const
+  {
+    acc -= (p_over_rho2 + p_i * inv_rho0_sq_) * grad_b;
+    if constexpr (kRecord) wall_dv -= (wall_dt * p_i * inv_rho0_sq_) * grad_b;
+  }
+
+  Real wallPressure(Index, Real p_i) const
+  {
+    return p_i;
+  }
+
+  /// Mirroring keeps no list of active boundary particles: the contact counts of the bodies are
+  /// the particles with a fluid neighbour.
+  void report(StepReport& rep, const BodySet& bodies) const
+  {
+    std::size_t total = 0;
+    for (const Body& b : bodies.bodies()) total += b.contact;
+    rep.active_boundary = total;
+  }
+
+  const std::vector<Real>& boundaryPressures() const
+  {
+    return zero_;
+  }
+
+private:
+  BoundaryPressureInputs in_;
+  Real inv_rho0_sq_;        // m^6/kg^2
+  std::vector<Real> zero_;  // Pa: mirroring stores no p_b
+};
+
+/// What both extrapolations share: p_b = constant_b + sum_f c_bf p_f over the fluid neighbours f
+/// of each active boundary particle (one with a fluid neighbour within h), with the coefficients
+/// fixed during both solves (positions do not change), so each iteration is one sparse product.
+/// The limit (Eq. A11) and the clamp p_b >= 0 in the density solve apply to both.
+class ExtrapolatedBoundaryPressure
+{
+public:
+  /// `fit_radius` (m): how far from b the fluid neighbours of the fit reach.
+  ExtrapolatedBoundaryPressure(const BoundaryPressureInputs& in, Real fit_radius);
+
+  /// The active boundary particles and their fluid neighbours within the fit radius, with
+  /// W(r) of a cubic spline of that support per pair (1/m^3).
+  void buildLists();
+
+  void addDiagonalFeedback(Real&, const Vec3&, const Vec3&) const {}
+
+  /// p_b for every active boundary particle from the fluid pressures `p` (Eq. 3 / Eq. 15); with
+  /// `with_constant` (SPH's hydrostatic term, density solve only) adds constant_b; in the density
+  /// solve clamps p_b >= 0 when solver.clamp_boundary_pressure is set.
+  void extrapolate(const std::vector<Real>& p, bool density_solve, bool with_constant);
+
+  /// Eq. 1 with the stored p_b: sum_b psi_b p_b/rho0^2 grad W_ib, plus (p_i/rho_i^2) grad_b.
+  template <bool kRecord>
+  void addWallAcceleration(std::size_t i, const Vec3& xi, Real p_over_rho2, Real, const Vec3& grad_b, Real wall_dt,
+                           Vec3& acc, Vec3& wall_dv) const
+  {
+    const NeighborLists& fb = in_.neighbors.fluid_boundary;
+    const Real rho0 = in_.constants.rho0;
+    Vec3 wall = Vec3::Zero();
+    for (Index k = fb.offset[i]; k < fb.offset[i + 1]; ++k)
+    {
+      const Index b = fb.index[k];
+      wall -= (rho0 * volume_[b] * pb_[b] * inv_rho0_sq_ * fb.grad_factor[k]) * (xi - xb_[b]);
+    }
+    acc += wall - p_over_rho2 * grad_b;
+    if constexpr (kRecord) wall_dv += wall_dt * wall;
+  }
+
+  Real wallPressure(Index b, Real) const
+  {
+    return pb_[b];
+  }
+
+  const std::vector<Real>& boundaryPressures() const
+  {
+    return pb_;
+  }
+
+protected:
+  BoundaryPressureInputs in_;
+  Real inv_rho0_sq_;                                        // m^6/kg^2
+  Real fit_radius_;                                         // m
+  const std::vector<Vec3>& xb_;                             // m, boundary positions
+  const std::vector<Real>& volume_;                         // m^3, V_b
+  std::vector<Real> pb_;                                    // Pa, p_b of the last extrapolation (inactive: unchanged)
+  std::vector<Real> constant_;                              // Pa, constant_b (SPH's hydrostatic term; else 0)
+  std::vector<Index> active_;                               // the active boundary particles, ascending
+  NeighborLists fit_lists_;                                 // rows: active_; entries: fluid particles; weight: W(r)
+  std::vector<Real> coefficients_;                          // c_bf per entry of fit_lists_ (unit-less)
+  std::unique_ptr<std::atomic<std::uint8_t>[]> is_active_;  // per boundary particle (scratch)
+  std::vector<Vec3> queries_;                               // m, positions of active_ (scratch)
+};
+
+/// SPH extrapolation (Eq. 3, Adami 2012): c_bf = W_bf / sum W, and in the density solve the
+/// hydrostatic constant (g - a_b) . sum_f rho_f (x_b - x_f) W_bf / sum W.
+class SphBoundaryPressure : public ExtrapolatedBoundaryPressure
+{
+public:
+  explicit SphBoundaryPressure(const BoundaryPressureInputs& in);
+  void prepare();
+  void extrapolate(const std::vector<Real>& p, bool density_solve)
+  {
+    ExtrapolatedBoundaryPressure::extrapolate(p, density_solve, density_solve);
+  }
+  void report(StepReport& rep, const BodySet&) const
+  {
+    rep.active_boundary = active_.size();
+  }
+};
+
+/// MLS extrapolation (Eqs. 4-16, the paper): a hyperplane fitted to the fluid pressures around b,
+/// weighted by V_f W_bf over solver.mls_fit_radius spacings, evaluated at x_b.
+class MlsBoundaryPressure : public ExtrapolatedBoundaryPressure
+{
+public:
+  explicit MlsBoundaryPressure(const BoundaryPressureInputs& in);
+  void prepare();
+  void extrapolate(const std::vector<Real>& p, bool density_solve)
+  {
+    ExtrapolatedBoundaryPressure::extrapolate(p, density_solve, false);
+  }
+  void report(StepReport& rep, const BodySet&) const
+  {
+    rep.active_boundary = active_.size();
+    rep.mls_fallbacks = fallbacks_;
+    rep.mls_reduced = reduced_;
+  }
+
+private:
+  std::size_t fallbacks_ = 0;           // boundary particles on Eq. 16 this step
+  std::size_t reduced_ = 0;             // boundary particles with a pseudo-inverse fit this step
+  std::vector<std::uint8_t> fit_kind_;  // MlsFit per active particle (scratch)
+};
+
+}  // namespace fluid_sim

@@ -1,0 +1,147 @@
+// Boundary bodies: sampling and volumes at construction, poses, velocities and accelerations
+// each step (Eq. A17 of docs/method.md).
+
+#include "fluid_sim/core/bodies.h"
+
+#include <cmath>
+
+#include "fluid_sim/core/boundary_sampling.h"
+#include "fluid_sim/core/parallel.h"
+
+namespace fluid_sim
+{
+namespace
+{
+/// Rotation vector (axis * angle, rad) of a rotation.
+Vec3d rotationVector(const Eigen::Quaterniond& q)
+{
+  Eigen::AngleAxisd aa(q.normalized());
+  double angle = aa.angle();
+  if (angle > M_PI) angle -= 2.0 * M_PI;
+  return aa.axis() * angle;
+}
+}  // namespace
+
+BodySet::BodySet(const SceneConfig& scene)
+{
+  std::size_t offset = 0;
+  for (const BoundaryConfig& cfg : scene.boundaries)
+  {
+    Body body;
+    body.config = cfg;
+    if (body.config.type == ShapeType::Cylinder) body.config.cylinder.axis.normalize();
+    const double sample_spacing = cfg.sample_spacing > 0.0 ? cfg.sample_spacing : scene.spacing;  // m
+    body.local = sampleBoundary(body.config, sample_spacing, scene.spacing);
+    body.offset = offset;
+    body.initial_pose = cfg.pose;
+    body.pose = cfg.pose;
+    body.moving = cfg.externally_posed || !cfg.motion.isStatic();
+    offset += body.local.size();
+    bodies_.push_back(std::move(body));
+  }
+  x.resize(offset);
+  v.assign(offset, Vec3::Zero());
+  a.assign(offset, Vec3::Zero());
+  volume.resize(offset);
+  body_of.resize(offset);
+  // Eq. A3: V_b = gamma / sum_b' W_bb' over the body's own particles, gamma the flat-layer factor.
+  const double gamma = flatLayerVolumeFactor(scene.spacing, 2.0 * scene.spacing);
+  for (std::size_t bi = 0; bi < bodies_.size(); ++bi)
+  {
+    Body& body = bodies_[bi];
+    const std::vector<Real> vol = boundaryVolumes(body.local, 2.0 * scene.spacing, gamma);
+    for (std::size_t k = 0; k < body.local.size(); ++k)
+    {
+      volume[body.offset + k] = vol[k];
+      body_of[body.offset + k] = Index(bi);
+    }
+    pose(body, 0.0, true);
+  }
+}
+
+void BodySet::poseMoving(double time)
+{
+  for (Body& body : bodies_)
+    if (body.moving) pose(body, time, false);
+}
+
+void BodySet::setPendingPose(std::size_t index, const Pose& pose, bool jump)
+{
+  Body& body = bodies_.at(index);
+  body.pending_pose = pose;
+  body.pose_pending = true;
+  body.pose_jump = jump;
+}
+
+/// Eq. A17, scripted: rotation about `about` at constant angular velocity, then translation.
+Pose BodySet::scriptedPose(const Body& body, double time) const
+{
+  const MotionConfig& m = body.config.motion;
+  const double w = m.angular_velocity.norm();  // rad/s
+  Eigen::Quaterniond rot = Eigen::Quaterniond::Identity();
+  if (w > 0.0) rot = Eigen::Quaterniond(Eigen::AngleAxisd(w * time, m.angular_velocity / w));
+  Pose out;
+  out.rotation = (rot * body.initial_pose.rotation).normalized();
+  out.translation = m.about + rot * (body.initial_pose.translation - m.about) + m.linear_velocity * time;
+  return out;
+}
+
+/// Moves `body` to its pose at `time` and, if it moved (or force_write), writes its particles'
+/// world positions, velocities and accelerations.
+void BodySet::pose(Body& body, double time, bool force_write)
+{
+  if (body.config.externally_posed)
+  {
+    if (body.pose_pending)
+    {
+      const double dt = time - body.last_pose_time;  // s since the previous pose
+      if (body.pose_jump)
+      {
+        body.v_origin.setZero();
+        body.omega.setZero();
+        body.a_origin.setZero();
+        body.alpha.setZero();
+      }
+      else if (body.has_previous_pose && dt > 0.0)
+      {
+        // Eq. A17, external: velocities follow the poses by backward differences over the last
+        // interval, accelerations by differences of those.
+        const Vec3d v_new = (body.pending_pose.translation - body.pose.translation) / dt;
+        const Vec3d w_new = rotationVector(body.pending_pose.rotation * body.pose.rotation.conjugate()) / dt;
+        body.a_origin = (v_new - body.v_origin) / dt;
+        body.alpha = (w_new - body.omega) / dt;
+        body.v_origin = v_new;
+        body.omega = w_new;
+      }
+      body.pose = body.pending_pose;
+      body.last_pose_time = time;
+      body.has_previous_pose = true;
+      body.pose_pending = false;
+      force_write = true;
+    }
+  }
+  else if (!body.config.motion.isStatic())
+  {
+    // Eq. A17, scripted: constant velocities; the origin's acceleration is centripetal.
+    const MotionConfig& m = body.config.motion;
+    body.pose = scriptedPose(body, time);
+    body.omega = m.angular_velocity;
+    body.v_origin = m.angular_velocity.cross(body.pose.translation - m.about) + m.linear_velocity;
+    body.alpha.setZero();
+    body.a_origin = m.angular_velocity.cross(m.angular_velocity.cross(body.pose.translation - m.about));
+    force_write = true;
+  }
+  if (!force_write) return;
+  const Mat3d R = body.pose.rotation.toRotationMatrix();
+  const Vec3d o = body.pose.translation;
+  parallelFor(body.local.size(), [&](std::size_t k) {
+    const Vec3d r = R * body.local[k];  // m, from the body origin, world axes
+    const std::size_t b = body.offset + k;
+    x[b] = (o + r).cast<Real>();
+    v[b] = (body.v_origin + body.omega.cross(r)).cast<Real>();
+    a[b] = (body.a_origin + body.alpha.cross(r) + body.omega.cross(body.omega.cross(r))).cast<Real>();
+  });
+  ++version_;
+}
+
+}  // namespace fluid_sim

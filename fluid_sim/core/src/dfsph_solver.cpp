@@ -1,0 +1,407 @@
+// The DFSPH pressure solver, compiled once per boundary pressure method (see dfsph_solver.h).
+// Equation numbers refer to docs/method.md.
+
+#include "fluid_sim/core/dfsph_solver.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "fluid_sim/core/parallel.h"
+
+namespace fluid_sim
+{
+namespace
+{
+using Vec4 = Eigen::Matrix<Real, 4, 1>;  // a Vec3 padded with a 0 for packed arithmetic
+using Vec4Array = std::vector<Vec4, Eigen::aligned_allocator<Vec4>>;
+
+template <class Method>
+class DfsphSolver final : public PressureSolver
+{
+public:
+  DfsphSolver(const BoundaryPressureInputs& in, FluidParticles& fluid)
+      : in_(in)
+      , scene_(in.scene)
+      , fluid_(fluid)
+      , bodies_(in.bodies)
+      , ff_(in.neighbors.fluid_fluid)
+      , fb_(in.neighbors.fluid_boundary)
+      , rho0_(in.constants.rho0)
+      , mass_(in.constants.mass)
+      , method_(in)
+      , reference_diagonal_(referenceDiagonal())
+  {
+  }
+
+  void buildBoundaryLists() override
+  {
+    method_.buildLists();
+  }
+
+  void computeDensityAndDiagonal() override
+  {
+    densityDiagonalAndRate();
+    method_.prepare();
+  }
+
+  void divergenceSolve(double dt, StepReport& rep, BodyWrenches& wrenches) override
+  {
+    const std::size_t n = fluid_.size();
+    // Eq. A5: only compression counts (the free surface is not pulled in). The density rate is
+    // the one of densityDiagonalAndRate(): the velocities have not changed since.
+    parallelFor(n, [&](std::size_t i) { source_[i] = -std::max(density_rate_[i], Real(0)) / Real(dt); });
+    startingPressure(fluid_.p_divergence);
+    rep.divergence_iterations =
+        solve(fluid_.p_divergence, dt, false, scene_.solver.divergence_error, scene_.solver.min_divergence_iterations,
+              rep.divergence_error, rep.divergence_converged);
+    parallelFor(n, [&](std::size_t i) { fluid_.v[i] += Real(dt) * a4_[i].template head<3>(); });  // v*
+    accumulateWrenches(fluid_.p_divergence, wrenches);
+  }
+
+  void densitySolve(double dt, StepReport& rep, BodyWrenches& wrenches) override
+  {
+    const std::size_t n = fluid_.size();
+    computeDensityRate();  // with v**
+    // Eq. A6.
+    const Real inv_dt = Real(1.0 / dt), inv_dt2 = Real(1.0 / (dt * dt));
+    parallelFor(n, [&](std::size_t i) { source_[i] = (rho0_ - fluid_.rho[i]) * inv_dt2 - density_rate_[i] * inv_dt; });
+    startingPressure(fluid_.p_density);
+    rep.density_iterations = solve(fluid_.p_density, dt, true, scene_.solver.density_error,
+                                   scene_.solver.min_iterations, rep.density_error, rep.density_converged);
+    accumulateWrenches(fluid_.p_density, wrenches);
+  }
+
+  void integrate(double dt) override
+  {
+    const std::size_t n = fluid_.size();
+    // Eq. A16 (symplectic Euler).
+    parallelFor(n, [&](std::size_t i) {
+      fluid_.v[i] += Real(dt) * a4_[i].template head<3>();
+      fluid_.x[i] += Real(dt) * fluid_.v[i];
+    });
+    // Output: the pressure that acted on each particle over the step is the sum of both solves'.
+    const bool divergence = scene_.solver.divergence_solve;
+    fluid_.p_total.resize(n);
+    parallelFor(n, [&](std::size_t i) {
+      fluid_.p_total[i] = fluid_.p_density[i] + (divergence ? fluid_.p_divergence[i] : Real(0));
+    });
+  }
+
+  double boundaryPressureWork() const override
+  {
+    // sum_i m wall_dv_i . v_i(t + dt): the displacement of the step is dt v(t + dt).
+    return double(mass_) *
+           parallelSum(fluid_.size(), [&](std::size_t i) { return double(wall_dv_[i].dot(fluid_.v[i])); });
+  }
+
+  Real wallPressure(std::size_t i, Index b) const override
+  {
+    return method_.wallPressure(b, fluid_.p_density[i]);
+  }
+
+  void report(StepReport& rep) const override
+  {
+    method_.report(rep, bodies_);
+  }
+
+  const std::vector<Real>& boundaryPressures() const override
+  {
+    return method_.boundaryPressures();
+  }
+
+private:
+  /// |A_i| (Eq. A4) of a particle in a full cubic lattice without boundary: the scale of the
+  /// diagonal, for the lone-particle guard.
+  double referenceDiagonal() const
+  {
+    const CubicKernel& kernel = in_.constants.kernel;
+    const Real s = in_.constants.spacing;
+    Vec3 g = Vec3::Zero();
+    double sq = 0.0, density = mass_ * kernel.W0();
+    for (int k = -2; k <= 2; ++k)
+      for (int j = -2; j <= 2; ++j)
+        for (int i = -2; i <= 2; ++i)
+        {
+          if (i == 0 && j == 0 && k == 0) continue;
+          const Vec3 r = Vec3(Real(i), Real(j), Real(k)) * s;
+          const Vec3 gw = kernel.gradW(r);
+          g += mass_ * gw;
+          sq += double(mass_) * mass_ * gw.squaredNorm();
+          density += mass_ * kernel.W(r);
+        }
+    return (g.squaredNorm() + sq) / (density * density);
+  }
+
+  /// Eqs. A1, A4 and A2 in one pass over the pairs (the divergence solve needs the density rate
+  /// next): density (kg/m^3), diagonal A_i, boundary gradient sum grad_b (kg/m^4) and density rate
+  /// with the current velocities (kg/m^3/s).
+  void densityDiagonalAndRate()
+  {
+    const std::size_t n = fluid_.size();
+    diagonal_.resize(n);
+    density_rate_.resize(n);
+    grad_b_.resize(n);
+    source_.resize(n);
+    wall_dv_.assign(n, Vec3::Zero());  // a new step: the wall-work record restarts at zero
+    padPositions();
+    padVelocities();
+    const Real w0 = in_.constants.kernel.W0();
+    const std::vector<Vec3>& xb = bodies_.x;
+    const std::vector<Vec3>& vb = bodies_.v;
+    const std::vector<Real>& Vb = bodies_.volume;
+    parallelFor(n, [&](std::size_t i) {
+      const Vec3 xi = fluid_.x[i], vi = fluid_.v[i];
+      const Vec4 xi4 = x4_[i], vi4 = v4_[i];
+      Real density = mass_ * w0;
+      Vec4 gf4 = Vec4::Zero(), sq4 = Vec4::Zero(), rate4 = Vec4::Zero();
+      for (Index k = ff_.offset[i]; k < ff_.offset[i + 1]; ++k)
+      {
+        const Index j = ff_.index[k];
+        density += mass_ * ff_.weight[k];
+        const Vec4 g = ff_.grad_factor[k] * (xi4 - x4_[j]);
+        gf4 += g;
+        sq4 += g.cwiseProduct(g);
+        rate4 += (vi4 - v4_[j]).cwiseProduct(g);
+      }
+      const Vec3 gf = gf4.template head<3>();
+      const Real sq = sq4.sum();
+      Real rate = mass_ * rate4.sum();
+      Vec3 gb = Vec3::Zero();
+      for (Index k = fb_.offset[i]; k < fb_.offset[i + 1]; ++k)
+      {
+        const Index b = fb_.index[k];
+        const Vec3 r = xi - xb[b];
+        const Real psi = rho0_ * Vb[b];  // kg: the boundary particle's rest mass (Akinci)
+        density += psi * fb_.weight[k];
+        const Vec3 g = (psi * fb_.grad_factor[k]) * r;
+        gb += g;
+        rate += (vi - vb[b]).dot(g);
+      }
+      fluid_.rho[i] = density;
+      density_rate_[i] = rate;
+      grad_b_[i] = gb;
+      const Vec3 gsum = mass_ * gf + gb;
+      diagonal_[i] = -(gsum.squaredNorm() + mass_ * mass_ * sq) / (density * density);
+      method_.addDiagonalFeedback(diagonal_[i], gb, gsum);
+      if (-diagonal_[i] < 1e-6 * reference_diagonal_) diagonal_[i] = 0;  // lone particle: no pressure
+    });
+  }
+
+  /// x4 = x padded: a neighbour's vector is then one packed load, and a subtraction and a
+  /// multiply-add are one instruction each instead of three (m).
+  void padPositions()
+  {
+    x4_.resize(fluid_.size());
+    parallelFor(fluid_.size(), [&](std::size_t i) { x4_[i] << fluid_.x[i], Real(0); });
+  }
+
+  /// v4 = v padded (m/s).
+  void padVelocities()
+  {
+    v4_.resize(fluid_.size());
+    parallelFor(fluid_.size(), [&](std::size_t i) { v4_[i] << fluid_.v[i], Real(0); });
+  }
+
+  /// Eq. A2 with the current velocities, kg/m^3/s.
+  void computeDensityRate()
+  {
+    padVelocities();
+    const std::vector<Vec3>& xb = bodies_.x;
+    const std::vector<Vec3>& vb = bodies_.v;
+    const std::vector<Real>& Vb = bodies_.volume;
+    parallelFor(fluid_.size(), [&](std::size_t i) {
+      const Vec3 xi = fluid_.x[i], vi = fluid_.v[i];
+      const Vec4 xi4 = x4_[i], vi4 = v4_[i];
+      Vec4 sum = Vec4::Zero();
+      for (Index k = ff_.offset[i]; k < ff_.offset[i + 1]; ++k)
+      {
+        const Index j = ff_.index[k];
+        sum += ff_.grad_factor[k] * (vi4 - v4_[j]).cwiseProduct(xi4 - x4_[j]);
+      }
+      Real rate = mass_ * sum.sum();
+      for (Index k = fb_.offset[i]; k < fb_.offset[i + 1]; ++k)
+      {
+        const Index b = fb_.index[k];
+        rate += rho0_ * Vb[b] * fb_.grad_factor[k] * (vi - vb[b]).dot(xi - xb[b]);
+      }
+      density_rate_[i] = rate;
+    });
+  }
+
+  /// Eq. A10: the first guess of a solve whose source is set: zero, or with solver.warm_start the
+  /// previous step's pressure where the water is compressing now (s_i < 0) and is at or above
+  /// rest density. A stale pressure on a particle that has since left the bulk (a splash, with one
+  /// or two neighbours, a density near 0.3 rho0 and a tiny diagonal) would accelerate it by
+  /// p/rho^2 before the two minimum iterations could bring it down: with the plain previous
+  /// pressure the dam breaks blew up for every boundary method (docs/method_notes.md).
+  void startingPressure(std::vector<Real>& p)
+  {
+    if (!scene_.solver.warm_start)
+    {
+      std::fill(p.begin(), p.end(), Real(0));
+      return;
+    }
+    parallelFor(p.size(), [&](std::size_t i) {
+      if (!(source_[i] < 0 && fluid_.rho[i] >= rho0_)) p[i] = 0;
+    });
+  }
+
+  /// Eq. 1 with the method's boundary term: a^p from the pressures p into a4 (m/s^2). With
+  /// kRecordWall (the final evaluation of a solve) it also adds wall_dt (s) times the p_b part of
+  /// the wall term to wall_dv (the wall-work diagnostic).
+  template <bool kRecordWall = false>
+  void computePressureAcceleration(const std::vector<Real>& p, Real wall_dt = 0)
+  {
+    const std::size_t n = fluid_.size();
+    p_over_rho2_.resize(n);
+    parallelFor(n, [&](std::size_t i) { p_over_rho2_[i] = p[i] / (fluid_.rho[i] * fluid_.rho[i]); });
+    a4_.resize(n);
+    parallelFor(n, [&](std::size_t i) {
+      const Vec3 xi = fluid_.x[i];
+      const Real ki = p_over_rho2_[i];  // Pa m^6/kg^2 = m^5/(kg s^2)
+      const Vec4 xi4 = x4_[i];
+      Vec4 acc4 = Vec4::Zero();
+      for (Index k = ff_.offset[i]; k < ff_.offset[i + 1]; ++k)
+      {
+        const Index j = ff_.index[k];
+        acc4 -= (mass_ * (ki + p_over_rho2_[j]) * ff_.grad_factor[k]) * (xi4 - x4_[j]);
+      }
+      Vec3 acc = acc4.template head<3>();
+      method_.template addWallAcceleration<kRecordWall>(i, xi, ki, p[i], grad_b_[i], wall_dt, acc, wall_dv_[i]);
+      a4_[i] << acc, Real(0);
+    });
+  }
+
+  /// One relaxed Jacobi sweep: D_i (Eq. A7), p_i += omega (s_i - D_i)/A_i (Eq. A8). Returns the
+  /// stopping error (Eq. A9) of the pressures before this update.
+  double jacobiUpdate(std::vector<Real>& p, double dt, bool clamp_p)
+  {
+    const std::size_t n = fluid_.size();
+    error_.resize(n);
+    const Real omega = Real(scene_.solver.omega);
+    const Real dt2_over_rho0 = Real(dt * dt / rho0_);
+    const bool warm = scene_.solver.warm_start;
+    parallelFor(n, [&](std::size_t i) {
+      const Vec4 xi = x4_[i], ai = a4_[i];
+      // Component-wise products summed over the pairs, the three components added once at the end.
+      Vec4 sum = Vec4::Zero();
+      for (Index k = ff_.offset[i]; k < ff_.offset[i + 1]; ++k)
+      {
+        const Index j = ff_.index[k];
+        sum += ff_.grad_factor[k] * (ai - a4_[j]).cwiseProduct(xi - x4_[j]);
+      }
+      Real div = mass_ * sum.sum();
+      div += ai.template head<3>().dot(grad_b_[i]);  // boundary particles are not accelerated by the fluid
+      const Real residual = div - source_[i];
+      // residual > 0: compression left. With a warm start the first guess can also be too high
+      // (a stale pressure on a particle that no longer needs it) and then residual < 0 is an
+      // error too, so wherever a pressure acts its |residual| counts; from zero (cold start) the
+      // iteration approaches from below and the positive part is the error (DFSPH's measure).
+      const Real counted = (warm && p[i] != 0) ? std::abs(residual) : std::max(residual, Real(0));
+      error_[i] = counted * dt2_over_rho0;
+      if (diagonal_[i] != 0)
+      {
+        Real next = p[i] - omega * residual / diagonal_[i];
+        p[i] = clamp_p ? std::max(next, Real(0)) : next;
+      }
+    });
+    return parallelSum(n, [&](std::size_t i) { return double(error_[i]); }) / double(std::max<std::size_t>(n, 1));
+  }
+
+  /// Iterates a solve; on return a4 holds the final pressure acceleration, with p_b recomputed
+  /// from the final p. Returns the iterations; writes error and convergence.
+  int solve(std::vector<Real>& p, double dt, bool density_solve, double tol, int min_it, double& error, bool& converged)
+  {
+    const int max_it = scene_.solver.max_iterations;
+    int it = 0;
+    error = 0.0;
+    converged = false;
+    while (it < max_it)
+    {
+      method_.extrapolate(p, density_solve);
+      computePressureAcceleration(p);
+      error = jacobiUpdate(p, dt, density_solve);
+      ++it;
+      if (it >= min_it && error <= tol)
+      {
+        converged = true;
+        break;
+      }
+    }
+    method_.extrapolate(p, density_solve);
+    computePressureAcceleration<true>(p, Real(dt));  // the final a^p, also recording the wall term
+    return it;
+  }
+
+  /// Eq. A12: adds the pressure forces of the last a^p evaluation (pressures p, and p_b) to the
+  /// bodies' wrenches, by Newton's third law from the fluid side of each pair.
+  void accumulateWrenches(const std::vector<Real>& p, BodyWrenches& wrenches)
+  {
+    const std::size_t nb = bodies_.size();
+    if (nb == 0) return;
+    const Real inv_rho0_sq = Real(1) / (rho0_ * rho0_);
+    const std::vector<Vec3>& xb = bodies_.x;
+    const std::vector<Real>& Vb = bodies_.volume;
+    BodyWrenches total = parallelDeterministicSum(
+        fluid_.size(), BodyWrenches(nb),
+        [&](const tbb::blocked_range<std::size_t>& r, BodyWrenches& acc) {
+          for (std::size_t i = r.begin(); i != r.end(); ++i)
+          {
+            if (fb_.offset[i] == fb_.offset[i + 1]) continue;
+            const Real ki = p_over_rho2_[i];
+            for (Index k = fb_.offset[i]; k < fb_.offset[i + 1]; ++k)
+            {
+              const Index b = fb_.index[k];
+              const Real pb = method_.wallPressure(b, p[i]);
+              // The force on b is minus the force on i from b.
+              const Vec3 f =
+                  (mass_ * rho0_ * Vb[b] * (ki + pb * inv_rho0_sq) * fb_.grad_factor[k]) * (fluid_.x[i] - xb[b]);
+              const Index body = bodies_.body_of[b];
+              const Vec3d fd = f.template cast<double>();
+              acc.force[body] += fd;
+              acc.torque[body] += (xb[b].template cast<double>() - bodies_[body].pose.translation).cross(fd);
+            }
+          }
+        },
+        [](BodyWrenches& left, const BodyWrenches& right) { left.add(right); });
+    wrenches.add(total);
+  }
+
+  BoundaryPressureInputs in_;
+  const SceneConfig& scene_;
+  FluidParticles& fluid_;
+  const BodySet& bodies_;
+  const NeighborLists& ff_;  // fluid-fluid: grad_factor (1/m^5), weight W (1/m^3)
+  const NeighborLists& fb_;  // fluid-boundary: the same
+  Real rho0_;                // kg/m^3
+  Real mass_;                // kg
+  Method method_;
+  double reference_diagonal_;  // 1/m^2, |A_i| of a full neighbourhood (Eq. A4)
+
+  // Per-step scratch, in the order of the current (sorted) particles.
+  std::vector<Real> diagonal_;      // 1/m^2, A_i of Eq. A4: D_i changes by A_i kg/m^3/s^2 per Pa of p_i
+  std::vector<Real> density_rate_;  // kg/m^3/s, Eq. A2
+  std::vector<Real> source_;        // kg/m^3/s^2, s_i of Eq. A5 or A6
+  std::vector<Real> p_over_rho2_;   // p_i/rho_i^2 of the last a^p evaluation, m^5/(kg s^2)
+  std::vector<Real> error_;         // per-particle term of Eq. A9 (relative)
+  std::vector<Vec3> grad_b_;        // kg/m^4, sum_b psi_b grad W_ib
+  Vec4Array x4_, v4_, a4_;          // m, m/s, m/s^2: x, v and a^p padded to 4 components
+  std::vector<Vec3> wall_dv_;       // m/s, this step's velocity change from the p_b wall term
+};
+}  // namespace
+
+std::unique_ptr<PressureSolver> makePressureSolver(const BoundaryPressureInputs& in, FluidParticles& fluid)
+{
+  switch (in.scene.solver.boundary_pressure)
+  {
+    case BoundaryPressureMethod::Mirroring:
+      return std::make_unique<DfsphSolver<MirroredBoundaryPressure>>(in, fluid);
+    case BoundaryPressureMethod::SphExtrapolation:
+      return std::make_unique<DfsphSolver<SphBoundaryPressure>>(in, fluid);
+    case BoundaryPressureMethod::Mls:
+      return std::make_unique<DfsphSolver<MlsBoundaryPressure>>(in, fluid);
+  }
+  throw ConfigError("solver.boundary_pressure", "unknown boundary pressure method");
+}
+
+}  // namespace fluid_sim
