@@ -20,17 +20,17 @@ export PYENV_VERSION=system
 PACKAGES=(
   build-essential cmake zlib1g-dev catkin ros-message-generation ros-message-runtime
   libroscpp-dev libroslib-dev librostest-dev
-  libstd-msgs-dev libgeometry-msgs-dev libsensor-msgs-dev libvisualization-msgs-dev
-  ros-std-msgs ros-geometry-msgs ros-sensor-msgs ros-visualization-msgs
-  python3-geometry-msgs python3-sensor-msgs python3-visualization-msgs python3-tf2-msgs
-  libtf2-ros-dev libtf2-eigen-dev tf2-tools ros-robot-state-publisher
+  libstd-msgs-dev libgeometry-msgs-dev libsensor-msgs-dev
+  ros-std-msgs ros-geometry-msgs ros-sensor-msgs
+  python3-geometry-msgs python3-sensor-msgs python3-tf2-msgs
+  libtf2-ros-dev tf2-tools ros-robot-state-publisher
   liburdfdom-dev libassimp-dev libeigen3-dev libtbb-dev libgtest-dev libyaml-cpp-dev
   python3-roslaunch python3-rostopic python3-rosnode python3-rosparam python3-rosmsg
   python3-rostest rosbash
   libnodeletlib-dev libnodeletlib-tools libnodelet-dev python3-nodelet pluginlib-dev
   libdynamic-reconfigure-config-init-mutex-dev python3-dynamic-reconfigure
   libstd-srvs-dev ros-std-srvs python3-std-srvs
-  libcli11-dev nlohmann-json3-dev libbenchmark-dev clang-format python3-matplotlib
+  libcli11-dev nlohmann-json3-dev clang-format python3-matplotlib
 )
 
 # rviz (launch/demo.launch rviz:=true) only where there is a display to show it, or when asked.

@@ -10,16 +10,13 @@
 
 #include <sys/resource.h>
 
-#include <tbb/blocked_range.h>
 #include <tbb/global_control.h>
-#include <tbb/parallel_reduce.h>
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <chrono>
 #include <cstdint>
 #include <cstdio>
 #include <fstream>
-#include <functional>
 #include <iostream>
 #include <memory>
 #include <nlohmann/json.hpp>
@@ -212,30 +209,6 @@ nlohmann::json toJson(const Row& r)
                         {"peak_bytes_per_particle", r.peak_bytes_per_particle}};
 }
 
-/// Best-of-5 read bandwidth (GB/s) of a parallel sum over `bytes` of 32-bit words: the reference
-/// that says whether a solver pass is bound by memory traffic (its pair lists stream 8 B per
-/// pair). Integer sums vectorise freely, so the loop is not limited by an add chain.
-double readBandwidthGBs(std::size_t bytes)
-{
-  std::vector<std::uint32_t> data(bytes / sizeof(std::uint32_t), 1u);
-  double best = 0.0;
-  for (int rep = 0; rep < 5; ++rep)
-  {
-    const auto start = Clock::now();
-    const std::uint64_t sum = tbb::parallel_reduce(
-        tbb::blocked_range<std::size_t>(0, data.size(), 1 << 14), std::uint64_t(0),
-        [&](const tbb::blocked_range<std::size_t>& r, std::uint64_t acc) {
-          for (std::size_t i = r.begin(); i != r.end(); ++i) acc += data[i];
-          return acc;
-        },
-        std::plus<std::uint64_t>());
-    const double s = std::chrono::duration<double>(Clock::now() - start).count();
-    if (sum != data.size()) std::printf("bandwidth check: bad sum\n");  // also keeps the loop alive
-    best = std::max(best, double(bytes) / s / 1e9);
-  }
-  return best;
-}
-
 std::string findDefaultScene()
 {
   if (std::ifstream(kDefaultScene).good()) return kDefaultScene;
@@ -363,16 +336,6 @@ int main(int argc, char** argv)
     }
   }
 
-  // Reference bandwidths, measured in this run with the same threads: a pass over the pair lists
-  // streams 8 B per pair (index + factor) plus gathers of neighbour data that mostly hit cache.
-  const double bw_cache = readBandwidthGBs(std::size_t(8) << 20);
-  const double bw_memory = readBandwidthGBs(std::size_t(512) << 20);
-  std::printf(
-      "\nreference: parallel read of 8 MiB (cache-resident) %.1f GB/s, of 512 MiB (main memory) %.1f GB/s;\n"
-      "a solver pass streams 8 B per pair: at 8 B / (ns/pair) GB/s it would match them at %.2f and %.2f "
-      "ns/pair.\n",
-      bw_cache, bw_memory, 8.0 / bw_cache, 8.0 / bw_memory);
-
   if (!json_path.empty())
   {
     nlohmann::json doc{{"scene", scene_path},
@@ -382,8 +345,6 @@ int main(int argc, char** argv)
                        {"measured_steps", steps},
                        {"overrides", overrides},
                        {"rss_note", "process peak RSS (ru_maxrss), monotone: rows run coarse to fine"},
-                       {"read_bandwidth_8mib_gb_s", bw_cache},
-                       {"read_bandwidth_512mib_gb_s", bw_memory},
                        {"rows", json_rows}};
     std::ofstream out(json_path);
     if (!out)

@@ -19,7 +19,7 @@ TEST(Kernel, IntegratesToOneOverFineLattice)
 
 TEST(Kernel, ParticleLatticeAtHalfSupportGivesRestDensity)
 {
-  // h = 2 s (METHOD.md): a cubic lattice of spacing s sums s^3 W to one, so a fluid lattice
+  // h = 2 s (docs/method.md, Eq. A18): a cubic lattice of spacing s sums s^3 W to one, so a fluid lattice
   // starts at rest density.
   const Real s = Real(0.02);
   const CubicKernel kernel(2 * s);

@@ -87,15 +87,15 @@ struct Simulation::Impl
     //    (non_pressure_forces.cpp).
     forces.apply(dt, fluid, neighbors, bodies, wrenches);
 
-    // 5. Density solve (Eqs. A6-A10, with Eq. 1), then v(t + dt) and x(t + dt) (Eq. A16).
+    // 5. Density solve (Eqs. A6-A10, with Eq. 1) with v**.
     {
       PhaseTimer timer(rep.ms_density);
       solver->densitySolve(dt, rep, wrenches);
+      // 6. v(t + dt) = v** + dt a^p, x(t + dt) = x(t) + dt v(t + dt) (Eq. A16).
       solver->integrate(dt);
     }
     rep.boundary_pressure_work = solver->boundaryPressureWork();
-
-    // 6. The fluid's force and torque on each body (Eq. A12) and its contacts.
+    // The fluid's force and torque on each body over the step (Eq. A12), and its contacts.
     bodies.updateReports(wrenches, neighbors.fluid_boundary, fluid.size(),
                          [&](std::size_t i, Index b) { return solver->wallPressure(i, b); });
     t += dt;

@@ -1,9 +1,11 @@
 #pragma once
-// Pressure extrapolation to one boundary particle b from its fluid neighbours f (METHOD.md).
+// Pressure extrapolation to one boundary particle b from its fluid neighbours f (Eq. 3 and
+// Eqs. 4-16 of docs/method.md).
 // Both extrapolations are linear in the fluid pressures while positions are fixed:
 //   p_b = constant_b + sum_f c_bf p_f,
 // so the solver computes the coefficients once per step and each iteration is a sparse product
-// (METHOD.md choice 3). These functions compute the coefficients for one boundary particle.
+// (docs/method.md, "Extrapolation as coefficients"). These functions compute the coefficients for
+// one boundary particle; boundary_pressure_methods.h applies them.
 
 #include <Eigen/Eigenvalues>
 #include <cmath>

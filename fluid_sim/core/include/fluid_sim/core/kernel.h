@@ -1,6 +1,6 @@
 #pragma once
 // Cubic spline kernel (Monaghan 2005) in 3D, written with the support radius h (W = 0 for r >= h).
-// METHOD.md: h = 2 x spacing.
+// Eq. A18 of docs/method.md: h = 2 x spacing.
 
 #include <cmath>
 

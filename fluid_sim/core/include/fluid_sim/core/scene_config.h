@@ -26,7 +26,7 @@ const char* toString(BoundaryPressureMethod method);
 /// Throws ConfigError(key, ...) for an unknown name.
 BoundaryPressureMethod parseBoundaryPressureMethod(const std::string& name, const std::string& key);
 
-/// How MLS treats a (nearly) singular moment matrix M_b (METHOD.md choice 4).
+/// How MLS treats a (nearly) singular moment matrix M_b (docs/method.md, MLS).
 enum class MlsSingularMode
 {
   Fallback,      // Eq. 16: p_b = alpha_b whenever the smallest eigenvalue ratio is below the tolerance

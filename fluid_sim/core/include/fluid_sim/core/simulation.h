@@ -26,7 +26,7 @@ struct StepReport
   double max_speed = 0.0;          // m/s after the step
   double kinetic_energy = 0.0;     // J, of the fluid after the step
   // J: work done on the fluid this step by the boundary-pressure part of the wall term,
-  // -sum_b psi_b (p_b/rho0^2) grad W_ib (METHOD.md Eq. 1; with mirroring p_b = p_i, Eq. 2): its
+  // -sum_b psi_b (p_b/rho0^2) grad W_ib (Eq. 1 of docs/method.md; with mirroring p_b = p_i, Eq. 2): its
   // velocity change from both solves dotted with m v after the step (the displacement is dt v).
   // The other wall term, (p_i/rho_i^2) grad_b, is the adjoint of the discrete divergence; this
   // one is conservative only while p_b is a fixed field on the wall (sph, mls near rest), not when
