@@ -89,5 +89,78 @@ geometry_msgs::Wrench toWrench(const Vec3d& force, const Vec3d& torque)
   return w;
 }
 
+fluid_msgs::ContactWrench toContactWrench(const BodyInfo& body, const Vec3d& force, const Vec3d& torque,
+                                          double max_pressure)
+{
+  fluid_msgs::ContactWrench cw;
+  cw.link = body.name;
+  cw.wrench = toWrench(force, torque);
+  cw.contact_particles = static_cast<std::uint32_t>(body.contact_particles);
+  cw.max_pressure = max_pressure;
+  return cw;
+}
+
+Pose toPose(const geometry_msgs::Transform& transform)
+{
+  const geometry_msgs::Vector3& t = transform.translation;
+  const geometry_msgs::Quaternion& q = transform.rotation;
+  Pose p;
+  p.translation = Vec3d(t.x, t.y, t.z);
+  p.rotation = Eigen::Quaterniond(q.w, q.x, q.y, q.z).normalized();
+  return p;
+}
+
+fluid_msgs::SolverStats toSolverStats(const StepReport& report, const Simulation& sim, double real_time_factor,
+                                      bool paused, const std::string& status)
+{
+  fluid_msgs::SolverStats s;
+  s.sim_time = sim.time();
+  s.time_step = report.dt;
+  s.divergence_iterations = report.divergence_iterations;
+  s.density_iterations = report.density_iterations;
+  s.density_error = report.density_error;
+  s.divergence_error = report.divergence_error;
+  s.max_speed = report.max_speed;
+  s.fluid_particles = static_cast<std::uint32_t>(sim.numFluidParticles());
+  s.removed_particles = static_cast<std::uint32_t>(sim.removedTotal());
+  s.step_wall_time = report.ms_total * 1e-3;
+  s.real_time_factor = real_time_factor;
+  s.paused = paused;
+  s.status = status;
+  return s;
+}
+
+fluid_sim::FluidSimConfig toReconfigure(const SolverConfig& solver, const ViscosityConfig& viscosity)
+{
+  fluid_sim::FluidSimConfig c;
+  c.density_error = solver.density_error;
+  c.divergence_error = solver.divergence_error;
+  c.min_iterations = solver.min_iterations;
+  c.max_iterations = solver.max_iterations;
+  c.warm_start = solver.warm_start;
+  c.viscosity_model = toString(viscosity.model);
+  c.viscosity_coefficient = viscosity.coefficient;
+  c.boundary_viscosity = viscosity.boundary;
+  return c;
+}
+
+void fromReconfigure(const fluid_sim::FluidSimConfig& config, SolverConfig& solver, ViscosityConfig& viscosity)
+{
+  solver.density_error = config.density_error;
+  solver.divergence_error = config.divergence_error;
+  solver.min_iterations = config.min_iterations;
+  solver.max_iterations = config.max_iterations;
+  solver.warm_start = config.warm_start;
+  // The .cfg offers exactly these three names.
+  if (config.viscosity_model == "artificial")
+    viscosity.model = ViscosityModel::Artificial;
+  else if (config.viscosity_model == "xsph")
+    viscosity.model = ViscosityModel::Xsph;
+  else
+    viscosity.model = ViscosityModel::None;
+  viscosity.coefficient = config.viscosity_coefficient;
+  viscosity.boundary = config.boundary_viscosity;
+}
+
 }  // namespace ros_bridge
 }  // namespace fluid_sim

@@ -1,13 +1,21 @@
 #pragma once
-// Conversions from the simulation's arrays to ROS messages. Only this layer includes ROS headers.
+// The converter between the simulation's types and ROS types: particle and boundary clouds,
+// wrenches, poses from tf, solver statistics, and the dynamic_reconfigure settings. Every
+// conversion the node makes is here; only this layer includes ROS headers.
 
 #include <string>
 #include <utility>
 #include <vector>
 
+#include <geometry_msgs/Transform.h>
 #include <geometry_msgs/Wrench.h>
 #include <sensor_msgs/PointCloud2.h>
 
+#include "fluid_msgs/ContactWrench.h"
+#include "fluid_msgs/SolverStats.h"
+#include "fluid_sim/FluidSimConfig.h"
+#include "fluid_sim/core/scene_config.h"
+#include "fluid_sim/core/simulation.h"
 #include "fluid_sim/core/types.h"
 
 namespace fluid_sim
@@ -41,7 +49,30 @@ void fillBoundaryCloud(const std::vector<Vec3>& positions, const std::vector<Rea
                        const std::vector<std::pair<std::size_t, std::size_t>>& body_ranges,
                        sensor_msgs::PointCloud2& cloud);
 
+/// Force (N) and torque (N m) as a message, axes as given.
 geometry_msgs::Wrench toWrench(const Vec3d& force, const Vec3d& torque);
+
+/// The ContactWrench of `body` with the given force (N) and torque (N m), both in the body
+/// frame, and the largest boundary pressure max_pressure (Pa); name and contact particles from
+/// `body`.
+fluid_msgs::ContactWrench toContactWrench(const BodyInfo& body, const Vec3d& force, const Vec3d& torque,
+                                          double max_pressure);
+
+/// A tf transform (translation in m) as a pose, its quaternion normalised.
+Pose toPose(const geometry_msgs::Transform& transform);
+
+/// The stats message of step `report` of `sim` (header left to the caller). `real_time_factor`:
+/// the measured one (simulated s per wall s); `status`: "ok", "not_converged" or "unstable: ...".
+fluid_msgs::SolverStats toSolverStats(const StepReport& report, const Simulation& sim, double real_time_factor,
+                                      bool paused, const std::string& status);
+
+/// The dynamic_reconfigure solver and viscosity settings with the values of `solver` and
+/// `viscosity`; the node group (publish_rate, real_time_factor, max_points) is left to the caller.
+fluid_sim::FluidSimConfig toReconfigure(const SolverConfig& solver, const ViscosityConfig& viscosity);
+
+/// Writes the solver and viscosity settings of `config` into `solver` and `viscosity`; their
+/// other fields are kept.
+void fromReconfigure(const fluid_sim::FluidSimConfig& config, SolverConfig& solver, ViscosityConfig& viscosity);
 
 }  // namespace ros_bridge
 }  // namespace fluid_sim

@@ -1,0 +1,78 @@
+#pragma once
+// tf lookup of link poses: the tf buffer and listener, the wait for every link at start, and
+// the robot links as bodies of the simulation, posed from tf before each step.
+
+#include <atomic>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <ros/node_handle.h>
+#include <ros/time.h>
+#include <tf2_ros/buffer.h>
+#include <tf2_ros/transform_listener.h>
+
+#include "fluid_sim/core/simulation.h"
+#include "fluid_sim/ros/node_parameters.h"
+
+namespace fluid_sim
+{
+namespace ros_bridge
+{
+class LinkPoses
+{
+public:
+  /// Poses are looked up in opt.fixed_frame. `opt` is read once by the node before any call
+  /// below and must outlive this object.
+  explicit LinkPoses(const NodeOptions& opt);
+
+  /// Starts listening to tf (subscribes through `nh`).
+  void listen(ros::NodeHandle& nh);
+
+  /// Pose of `link` in the fixed frame at `stamp` (ros::Time(0): the newest); nullopt if tf
+  /// cannot give it, with the reason in `why`.
+  std::optional<Pose> lookup(const std::string& link, const ros::Time& stamp, std::string* why);
+
+  /// Waits until tf knows every one of `links` in the fixed frame; their poses go into `poses`.
+  /// Throws StartupError after opt.tf_wait_timeout s (0 = wait for ever). False if ROS shut
+  /// down or `stopping` became true meanwhile.
+  bool waitFor(const std::vector<std::string>& links, const std::atomic<bool>& stopping,
+               std::map<std::string, Pose>& poses);
+
+  /// The links become bodies of `sim` (looked up by name), last posed at `poses`.
+  void attach(const Simulation& sim, const std::vector<std::string>& links, const std::map<std::string, Pose>& poses);
+
+  /// For a rebuild: each link's newest pose, or its last one where tf has none.
+  std::map<std::string, Pose> newestPoses();
+
+  /// Poses every link body of `sim` for the step starting now. `stamp`: ROS time of the
+  /// simulated instant, or ros::Time(0) for the newest poses. `jump`: place without deriving
+  /// velocities. A link tf does not know stays where it was (with a throttled warning).
+  void poseBodies(Simulation& sim, const ros::Time& stamp, bool jump);
+
+  /// Number of links posed from tf.
+  std::size_t size() const
+  {
+    return links_.size();
+  }
+
+private:
+  /// One body the node poses from tf.
+  struct LinkBody
+  {
+    std::string link;
+    std::size_t index = 0;  // in the simulation
+    Pose last_pose;         // link -> fixed frame (m), last given to the simulation
+    bool has_pose = false;
+  };
+
+  const NodeOptions& opt_;
+  tf2_ros::Buffer buffer_{ros::Duration(60.0)};
+  std::unique_ptr<tf2_ros::TransformListener> listener_;
+  std::vector<LinkBody> links_;
+};
+
+}  // namespace ros_bridge
+}  // namespace fluid_sim

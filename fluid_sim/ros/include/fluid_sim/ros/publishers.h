@@ -1,0 +1,120 @@
+#pragma once
+// Publishers of the node's topics (particles, boundary_particles, contact_wrenches,
+// wrench/<body>, stats) and their thread. The solver thread fills a Frame between steps and
+// hands it over; the publisher thread turns it into messages (through the converter,
+// messages.h). A slow publisher drops frames; it never blocks the solver.
+
+#include <atomic>
+#include <condition_variable>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <utility>
+#include <vector>
+
+#include <ros/node_handle.h>
+#include <ros/publisher.h>
+
+#include "fluid_msgs/ContactWrenchArray.h"
+#include "fluid_msgs/SolverStats.h"
+#include "fluid_sim/core/simulation.h"
+#include "fluid_sim/ros/messages.h"
+#include "fluid_sim/ros/node_parameters.h"
+
+namespace fluid_sim
+{
+namespace ros_bridge
+{
+/// What the publisher thread turns into messages (copied out by the solver between steps).
+struct Frame
+{
+  ros::Time stamp;  // the simulated instant in ROS time (tf-coupled), else when the frame was taken
+  FluidSnapshot fluid;
+  bool boundary_valid = false;                                   // the boundary cloud below is to be published
+  std::vector<Vec3> boundary;                                    // m, fixed frame
+  std::vector<Real> boundary_pressure;                           // Pa
+  std::vector<std::pair<std::size_t, std::size_t>> body_ranges;  // (first, count) per body
+  fluid_msgs::ContactWrenchArray wrenches;
+  fluid_msgs::SolverStats stats;
+};
+
+/// The wrenches published: per body, the time-weighted mean over the steps since the last
+/// frame (pressure forces jitter step to step), in the body frame.
+class WrenchMeans
+{
+public:
+  /// Forgets the sums; `bodies` bodies from now on.
+  void reset(std::size_t bodies);
+
+  /// Adds the wrenches of the step of length `dt` (s) just taken by `sim`.
+  void add(const Simulation& sim, double dt);
+
+  /// The means as messages, one per body of `sim` (the last step's wrench if no step was
+  /// added); then starts new sums.
+  void take(const Simulation& sim, std::vector<fluid_msgs::ContactWrench>& out);
+
+private:
+  std::vector<Vec3d> force_sum_;      // N s, body frame
+  std::vector<Vec3d> torque_sum_;     // N m s, body frame
+  std::vector<double> max_pressure_;  // Pa, largest over the steps
+  double weight_time_ = 0.0;          // s, the steps summed
+};
+
+class Publishers
+{
+public:
+  /// Clouds are in opt.fixed_frame. `opt` is read once by the node before any call below and
+  /// must outlive this object.
+  explicit Publishers(const NodeOptions& opt);
+
+  /// Advertises the topics in `pnh`, with one wrench/<name> topic per body.
+  void advertise(ros::NodeHandle& pnh, const std::vector<std::string>& body_names);
+
+  /// Most points in the particles cloud (0 = all); may change while running.
+  void setMaxPoints(std::size_t max_points)
+  {
+    max_points_ = max_points;
+  }
+
+  /// The frame the solver thread fills (its boundary_valid is false: set it with the cloud).
+  Frame& back()
+  {
+    return back_;
+  }
+
+  /// Hands the filled back() to the publisher thread, replacing a frame it has not taken yet.
+  void handOver();
+
+  /// Publishes `stats` at once, from the calling thread (stats while paused).
+  void publishStats(const fluid_msgs::SolverStats& stats)
+  {
+    pub_stats_.publish(stats);
+  }
+
+  /// Starts the publisher thread.
+  void start();
+  /// Tells the publisher thread to end once it has no frame left.
+  void requestStop();
+  /// Waits for the publisher thread to end (after requestStop, once no more frames come).
+  void join();
+
+private:
+  void run();
+
+  const NodeOptions& opt_;
+  std::atomic<std::size_t> max_points_{0};
+  ros::Publisher pub_particles_, pub_boundary_, pub_wrenches_, pub_stats_;
+  std::vector<ros::Publisher> pub_link_wrench_;  // per body, wrench/<name>
+
+  // The solver fills `back_` and swaps it with `pending_`; the publisher swaps `pending_` with
+  // `front_` and publishes from it.
+  std::mutex mutex_;
+  std::condition_variable cv_;
+  Frame back_, pending_, front_;
+  bool frame_ready_ = false;
+  std::atomic<bool> stopping_{false};
+  std::thread thread_;
+};
+
+}  // namespace ros_bridge
+}  // namespace fluid_sim

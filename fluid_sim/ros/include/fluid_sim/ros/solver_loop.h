@@ -1,0 +1,160 @@
+#pragma once
+// The solver loop: owns the simulation and the thread that steps it, paced against ROS time
+// (real_time_factor, tf_delay, the anchors that tie simulated time to ROS time), and takes the
+// commands of the services and of dynamic_reconfigure (pause, step, reset, new settings)
+// between two steps. Link poses come from LinkPoses before each step; frames go to Publishers
+// after it.
+
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+#include <utility>
+#include <vector>
+
+#include <ros/time.h>
+
+#include "fluid_sim/FluidSimConfig.h"
+#include "fluid_sim/core/simulation.h"
+#include "fluid_sim/ros/link_poses.h"
+#include "fluid_sim/ros/node_parameters.h"
+#include "fluid_sim/ros/publishers.h"
+
+namespace fluid_sim
+{
+namespace ros_bridge
+{
+/// The answer to a command from a service.
+struct CommandResult
+{
+  bool success = false;
+  std::string message;
+  double sim_time = 0.0;  // s, simulated time after the command (step only)
+};
+
+class SolverLoop
+{
+public:
+  /// `opt` is read once by the node before any call below and must outlive the loop.
+  SolverLoop(const NodeOptions& opt, LinkPoses& links, Publishers& publishers);
+
+  /// The scene without the robot and the robot's links (shapes in link frames); the live
+  /// settings start from the node options.
+  void setScene(SceneConfig scene, std::vector<BoundaryConfig> link_bodies);
+
+  /// Names of the links posed from tf.
+  std::vector<std::string> linkNames() const;
+
+  /// Builds the simulation with the link bodies at `poses`. Throws StartupError.
+  void build(const std::map<std::string, Pose>& poses);
+
+  /// The simulation (before start(), or from the solver thread).
+  const Simulation& simulation() const
+  {
+    return *sim_;
+  }
+
+  /// Called once from the solver thread when the run ends by itself (see FluidSimNode).
+  void onFinished(std::function<void(int)> callback)
+  {
+    on_finished_ = std::move(callback);
+  }
+
+  /// True once requestStop() was called.
+  const std::atomic<bool>& stopping() const
+  {
+    return stopping_;
+  }
+
+  /// Starts the solver thread.
+  void start();
+  /// Tells the solver thread to end; false if that was already asked.
+  bool requestStop();
+  /// Waits for the solver thread to end.
+  void join();
+
+  // Commands, from any thread; each is applied by the solver thread between two steps.
+  /// Rebuilds the scene with the newest link poses; returns when done (or after 120 s).
+  CommandResult reset();
+  /// Pauses (true) or resumes (false); a resume restarts the pacing from now.
+  CommandResult pause(bool paused);
+  /// Takes `steps` steps while paused; returns when they are done (or after 300 s).
+  CommandResult step(unsigned steps);
+  /// New live settings: publish_rate and real_time_factor at once, solver and viscosity
+  /// settings before the next step.
+  void reconfigure(const fluid_sim::FluidSimConfig& config);
+
+private:
+  using WallClock = std::chrono::steady_clock;
+
+  void run();
+  void applyCommands();
+  void afterStep(const StepReport& report, bool coupled);
+  void publishFrame(const StepReport& report, bool coupled);
+  void publishPausedStats();
+  void printSummary();
+
+  const NodeOptions& opt_;
+  LinkPoses& links_;
+  Publishers& publishers_;
+  std::function<void(int)> on_finished_;
+
+  // Scene and simulation. `base_scene_` has the scene's own bodies; link bodies are appended
+  // with the poses tf gives at (re)start.
+  SceneConfig base_scene_;
+  std::vector<BoundaryConfig> link_configs_;  // shapes in link frames, from the URDF
+  std::unique_ptr<Simulation> sim_;
+
+  // Commands from service and reconfigure callbacks, applied by the solver thread between steps.
+  std::mutex cmd_mutex_;
+  std::condition_variable cmd_cv_;
+  bool paused_ = false;
+  bool reset_requested_ = false;
+  bool reset_done_ = false;
+  std::string reset_error_;
+  unsigned steps_requested_ = 0;
+  std::uint64_t steps_done_counter_ = 0;
+  std::optional<fluid_sim::FluidSimConfig> pending_config_;
+  bool reanchor_ = true;  // pacing restarts from the current instants (start, resume, reset, rtf change)
+
+  // Live settings (reconfigurable).
+  std::atomic<double> publish_rate_{30.0};     // Hz
+  std::atomic<double> real_time_factor_{1.0};  // simulated s per ROS s; 0 = as fast as it can
+
+  std::atomic<bool> stopping_{false};
+  std::thread thread_;
+
+  // Solver-thread state: pacing.
+  ros::Time anchor_ros_;           // ROS time of simulated time anchor_sim_ (tf-coupled mode)
+  double anchor_sim_ = 0.0;        // s, simulated
+  double next_publish_sim_ = 0.0;  // s, simulated instant of the next frame (tf-coupled mode)
+  WallClock::time_point next_publish_wall_ = WallClock::now();  // of the next frame (other modes)
+  // Real-time factor over about a second of wall time.
+  WallClock::time_point rtf_wall0_ = WallClock::now();
+  double rtf_sim0_ = 0.0;      // s, simulated time at rtf_wall0_
+  double rtf_measured_ = 0.0;  // simulated s per wall s
+
+  // Solver-thread state: frames.
+  bool boundary_dirty_ = true;                                    // the boundary cloud must be (re)published
+  std::vector<std::pair<std::size_t, std::size_t>> body_ranges_;  // boundary particles of each body
+  WrenchMeans wrench_means_;
+  StepReport last_report_;
+  std::string last_status_ = "ok";
+  WallClock::time_point last_paused_stats_;  // stats while paused: at most one a second
+
+  // Run statistics (for the summary printed at the end).
+  std::uint64_t steps_ = 0, frames_ = 0;
+  double sum_divergence_iterations_ = 0, sum_density_iterations_ = 0;
+  double sum_step_ms_ = 0, sum_copy_ms_ = 0;  // ms: stepping, and copying frames out
+  WallClock::time_point run_start_ = WallClock::now();
+};
+
+}  // namespace ros_bridge
+}  // namespace fluid_sim

@@ -1,0 +1,139 @@
+#include "fluid_sim/ros/link_poses.h"
+
+#include <sstream>
+
+#include <ros/console.h>
+#include <tf2/exceptions.h>
+
+#include "fluid_sim/ros/fluid_sim_node.h"
+#include "fluid_sim/ros/messages.h"
+
+namespace fluid_sim
+{
+namespace ros_bridge
+{
+namespace
+{
+bool samePose(const Pose& a, const Pose& b)
+{
+  return a.translation == b.translation && a.rotation.coeffs() == b.rotation.coeffs();
+}
+}  // namespace
+
+LinkPoses::LinkPoses(const NodeOptions& opt) : opt_(opt) {}
+
+void LinkPoses::listen(ros::NodeHandle& nh)
+{
+  listener_ = std::make_unique<tf2_ros::TransformListener>(buffer_, nh);
+}
+
+std::optional<Pose> LinkPoses::lookup(const std::string& link, const ros::Time& stamp, std::string* why)
+{
+  try
+  {
+    return toPose(buffer_.lookupTransform(opt_.fixed_frame, link, stamp).transform);
+  }
+  catch (const tf2::TransformException& e)
+  {
+    if (why) *why = e.what();
+    return std::nullopt;
+  }
+}
+
+bool LinkPoses::waitFor(const std::vector<std::string>& links, const std::atomic<bool>& stopping,
+                        std::map<std::string, Pose>& poses)
+{
+  const ros::WallTime start = ros::WallTime::now();
+  ros::WallTime last_note = start;
+  bool noted = false;
+  while (ros::ok() && !stopping)
+  {
+    std::vector<std::string> missing;
+    std::string why;
+    for (const std::string& link : links)
+    {
+      if (poses.count(link)) continue;
+      if (auto p = lookup(link, ros::Time(0), &why))
+        poses[link] = *p;
+      else
+        missing.push_back(link);
+    }
+    if (missing.empty())
+    {
+      if (noted) ROS_INFO("tf now has every link; starting");
+      return true;
+    }
+    const double waited = (ros::WallTime::now() - start).toSec();
+    std::ostringstream list;
+    for (std::size_t k = 0; k < missing.size(); ++k) list << (k ? ", " : "") << missing[k];
+    if (opt_.tf_wait_timeout > 0.0 && waited > opt_.tf_wait_timeout)
+      throw StartupError("tf: no transform from '" + opt_.fixed_frame + "' to link(s) " + list.str() + " after " +
+                         std::to_string(opt_.tf_wait_timeout) + " s (~tf_wait_timeout); last error: " + why);
+    if (!noted || (ros::WallTime::now() - last_note).toSec() > 5.0)
+    {
+      ROS_WARN(
+          "waiting for tf: no transform yet from fixed frame '%s' to link(s) %s (is robot_state_publisher "
+          "running and the fixed frame connected to the robot?) [%s]",
+          opt_.fixed_frame.c_str(), list.str().c_str(), why.c_str());
+      last_note = ros::WallTime::now();
+      noted = true;
+    }
+    ros::WallDuration(0.05).sleep();
+  }
+  return false;
+}
+
+void LinkPoses::attach(const Simulation& sim, const std::vector<std::string>& links,
+                       const std::map<std::string, Pose>& poses)
+{
+  links_.clear();
+  for (const std::string& link : links)
+  {
+    LinkBody lb;
+    lb.link = link;
+    lb.index = sim.bodyIndex(link);
+    lb.last_pose = poses.at(link);
+    lb.has_pose = true;
+    links_.push_back(lb);
+  }
+}
+
+std::map<std::string, Pose> LinkPoses::newestPoses()
+{
+  std::map<std::string, Pose> poses;
+  for (const LinkBody& lb : links_)
+  {
+    std::string why;
+    auto p = lookup(lb.link, ros::Time(0), &why);
+    poses[lb.link] = p ? *p : lb.last_pose;
+  }
+  return poses;
+}
+
+void LinkPoses::poseBodies(Simulation& sim, const ros::Time& stamp, bool jump)
+{
+  for (LinkBody& lb : links_)
+  {
+    std::string why;
+    std::optional<Pose> p = lookup(lb.link, stamp, &why);
+    if (!p && !stamp.isZero())
+    {
+      // tf has nothing at that instant (usually: nothing newer yet); take the newest.
+      ROS_WARN_THROTTLE(5.0, "tf: no pose of '%s' at %.3f (%s); using the newest one", lb.link.c_str(), stamp.toSec(),
+                        why.c_str());
+      p = lookup(lb.link, ros::Time(0), &why);
+    }
+    if (!p)
+    {
+      ROS_WARN_THROTTLE(5.0, "tf: no pose of '%s' (%s); it stays where it was", lb.link.c_str(), why.c_str());
+      continue;
+    }
+    if (lb.has_pose && samePose(*p, lb.last_pose) && !jump) continue;  // static: no rewrite
+    sim.setBodyPose(lb.index, *p, jump);
+    lb.last_pose = *p;
+    lb.has_pose = true;
+  }
+}
+
+}  // namespace ros_bridge
+}  // namespace fluid_sim

@@ -1,0 +1,146 @@
+#include "fluid_sim/ros/publishers.h"
+
+#include <algorithm>
+
+#include <geometry_msgs/WrenchStamped.h>
+
+namespace fluid_sim
+{
+namespace ros_bridge
+{
+// ------------------------------------------------------------------------------ WrenchMeans
+void WrenchMeans::reset(std::size_t bodies)
+{
+  force_sum_.assign(bodies, Vec3d::Zero());
+  torque_sum_.assign(bodies, Vec3d::Zero());
+  max_pressure_.assign(bodies, 0.0);
+  weight_time_ = 0.0;
+}
+
+void WrenchMeans::add(const Simulation& sim, double dt)
+{
+  for (std::size_t k = 0; k < sim.numBodies(); ++k)
+  {
+    const BodyInfo b = sim.body(k);
+    force_sum_[k] += dt * b.force_body;
+    torque_sum_[k] += dt * b.torque_body;
+    max_pressure_[k] = std::max(max_pressure_[k], b.max_pressure);
+  }
+  weight_time_ += dt;
+}
+
+void WrenchMeans::take(const Simulation& sim, std::vector<fluid_msgs::ContactWrench>& out)
+{
+  out.resize(sim.numBodies());
+  const double w = weight_time_ > 0.0 ? 1.0 / weight_time_ : 0.0;
+  for (std::size_t k = 0; k < sim.numBodies(); ++k)
+  {
+    const BodyInfo b = sim.body(k);
+    out[k] = weight_time_ > 0.0 ? toContactWrench(b, w * force_sum_[k], w * torque_sum_[k], max_pressure_[k])
+                                : toContactWrench(b, b.force_body, b.torque_body, max_pressure_[k]);
+    force_sum_[k].setZero();
+    torque_sum_[k].setZero();
+    max_pressure_[k] = 0.0;
+  }
+  weight_time_ = 0.0;
+}
+
+// ------------------------------------------------------------------------------ Publishers
+Publishers::Publishers(const NodeOptions& opt) : opt_(opt) {}
+
+void Publishers::advertise(ros::NodeHandle& pnh, const std::vector<std::string>& body_names)
+{
+  pub_particles_ = pnh.advertise<sensor_msgs::PointCloud2>("particles", 2);
+  pub_boundary_ = pnh.advertise<sensor_msgs::PointCloud2>("boundary_particles", 1, true);
+  pub_wrenches_ = pnh.advertise<fluid_msgs::ContactWrenchArray>("contact_wrenches", 10);
+  pub_stats_ = pnh.advertise<fluid_msgs::SolverStats>("stats", 10);
+  for (const std::string& name : body_names)
+    pub_link_wrench_.push_back(pnh.advertise<geometry_msgs::WrenchStamped>("wrench/" + name, 10));
+}
+
+void Publishers::handOver()
+{
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    std::swap(back_, pending_);
+    // A frame the publisher has not taken yet is replaced; keep its boundary cloud if the new
+    // one has none (it must not be lost: it is latched and published only when it changes).
+    if (!pending_.boundary_valid && back_.boundary_valid)
+    {
+      std::swap(pending_.boundary, back_.boundary);
+      std::swap(pending_.boundary_pressure, back_.boundary_pressure);
+      std::swap(pending_.body_ranges, back_.body_ranges);
+      pending_.boundary_valid = true;
+    }
+    back_.boundary_valid = false;
+    frame_ready_ = true;
+  }
+  cv_.notify_one();
+}
+
+void Publishers::start()
+{
+  thread_ = std::thread([this] { run(); });
+}
+
+void Publishers::requestStop()
+{
+  stopping_ = true;
+  cv_.notify_all();
+}
+
+void Publishers::join()
+{
+  {
+    // The thread may have checked stopping_ just before it was set: wake it once more.
+    std::lock_guard<std::mutex> lock(mutex_);
+  }
+  cv_.notify_all();
+  if (thread_.joinable()) thread_.join();
+}
+
+void Publishers::run()
+{
+  while (true)
+  {
+    {
+      std::unique_lock<std::mutex> lock(mutex_);
+      cv_.wait(lock, [&] { return frame_ready_ || stopping_.load(); });
+      if (!frame_ready_ && stopping_) return;
+      std::swap(front_, pending_);
+      pending_.boundary_valid = false;
+      frame_ready_ = false;
+    }
+    const Frame& f = front_;
+    if (pub_particles_.getNumSubscribers() > 0)
+    {
+      // A new message each time: nodelet subscribers may keep the previous one (zero copy).
+      boost::shared_ptr<sensor_msgs::PointCloud2> cloud(new sensor_msgs::PointCloud2);
+      cloud->header.stamp = f.stamp;
+      cloud->header.frame_id = opt_.fixed_frame;
+      fillParticleCloud(f.fluid, max_points_, *cloud);
+      pub_particles_.publish(cloud);
+    }
+    if (f.boundary_valid)
+    {
+      boost::shared_ptr<sensor_msgs::PointCloud2> cloud(new sensor_msgs::PointCloud2);
+      cloud->header.stamp = f.stamp;
+      cloud->header.frame_id = opt_.fixed_frame;
+      fillBoundaryCloud(f.boundary, f.boundary_pressure, f.body_ranges, *cloud);
+      pub_boundary_.publish(cloud);
+    }
+    pub_wrenches_.publish(f.wrenches);
+    for (std::size_t k = 0; k < f.wrenches.wrenches.size() && k < pub_link_wrench_.size(); ++k)
+    {
+      geometry_msgs::WrenchStamped ws;
+      ws.header.stamp = f.stamp;
+      ws.header.frame_id = f.wrenches.wrenches[k].link;
+      ws.wrench = f.wrenches.wrenches[k].wrench;
+      pub_link_wrench_[k].publish(ws);
+    }
+    pub_stats_.publish(f.stats);
+  }
+}
+
+}  // namespace ros_bridge
+}  // namespace fluid_sim

@@ -1,0 +1,451 @@
+#include "fluid_sim/ros/solver_loop.h"
+
+#include <algorithm>
+#include <cstdio>
+#include <sstream>
+
+#include <ros/console.h>
+#include <ros/duration.h>
+
+#include "fluid_sim/ros/fluid_sim_node.h"
+#include "fluid_sim/ros/messages.h"
+
+namespace fluid_sim
+{
+namespace ros_bridge
+{
+namespace
+{
+double msSince(std::chrono::steady_clock::time_point t0)
+{
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+}  // namespace
+
+SolverLoop::SolverLoop(const NodeOptions& opt, LinkPoses& links, Publishers& publishers)
+    : opt_(opt), links_(links), publishers_(publishers)
+{
+}
+
+void SolverLoop::setScene(SceneConfig scene, std::vector<BoundaryConfig> link_bodies)
+{
+  base_scene_ = std::move(scene);
+  link_configs_ = std::move(link_bodies);
+  publish_rate_ = opt_.publish_rate;
+  real_time_factor_ = opt_.real_time_factor;
+}
+
+std::vector<std::string> SolverLoop::linkNames() const
+{
+  std::vector<std::string> names;
+  for (const BoundaryConfig& b : link_configs_) names.push_back(b.name);
+  return names;
+}
+
+void SolverLoop::build(const std::map<std::string, Pose>& poses)
+{
+  SceneConfig scene = base_scene_;
+  for (BoundaryConfig b : link_configs_)
+  {
+    b.pose = poses.at(b.name);
+    scene.boundaries.push_back(std::move(b));
+  }
+  try
+  {
+    auto next = std::make_unique<Simulation>(scene);
+    sim_ = std::move(next);
+  }
+  catch (const ConfigError& e)
+  {
+    throw StartupError(std::string("scene: ") + e.what());
+  }
+  links_.attach(*sim_, linkNames(), poses);
+  const std::size_t nb = sim_->numBodies();
+  body_ranges_.clear();
+  for (std::size_t k = 0; k < nb; ++k)
+  {
+    const BodyInfo b = sim_->body(k);
+    body_ranges_.emplace_back(b.first_particle, b.num_particles);
+  }
+  wrench_means_.reset(nb);
+  boundary_dirty_ = true;
+  reanchor_ = true;
+  rtf_sim0_ = 0.0;
+  rtf_wall0_ = WallClock::now();
+}
+
+// ------------------------------------------------------------------------------ thread
+void SolverLoop::start()
+{
+  run_start_ = WallClock::now();
+  thread_ = std::thread([this] { run(); });
+}
+
+bool SolverLoop::requestStop()
+{
+  std::lock_guard<std::mutex> lock(cmd_mutex_);
+  if (stopping_.exchange(true)) return false;
+  cmd_cv_.notify_all();
+  return true;
+}
+
+void SolverLoop::join()
+{
+  if (thread_.joinable()) thread_.join();
+}
+
+// ------------------------------------------------------------------------------ commands
+CommandResult SolverLoop::reset()
+{
+  std::unique_lock<std::mutex> lock(cmd_mutex_);
+  reset_requested_ = true;
+  reset_done_ = false;
+  cmd_cv_.notify_all();
+  cmd_cv_.wait_for(lock, std::chrono::seconds(120), [&] { return reset_done_ || stopping_.load(); });
+  CommandResult r;
+  r.success = reset_done_ && reset_error_.empty();
+  r.message = !reset_done_ ? "reset timed out" : reset_error_.empty() ? "reset to the initial scene" : reset_error_;
+  return r;
+}
+
+CommandResult SolverLoop::pause(bool paused)
+{
+  std::lock_guard<std::mutex> lock(cmd_mutex_);
+  if (paused_ && !paused) reanchor_ = true;  // resume: pacing restarts from now
+  paused_ = paused;
+  cmd_cv_.notify_all();
+  CommandResult r;
+  r.success = true;
+  r.message = paused_ ? "paused" : "running";
+  return r;
+}
+
+CommandResult SolverLoop::step(unsigned steps)
+{
+  std::unique_lock<std::mutex> lock(cmd_mutex_);
+  CommandResult r;
+  if (!paused_)
+  {
+    r.success = false;
+    r.message = "the simulation is running: pause it first (service pause, data: true)";
+    return r;
+  }
+  if (steps == 0)
+  {
+    r.success = false;
+    r.message = "steps must be at least 1";
+    return r;
+  }
+  const std::uint64_t target = steps_done_counter_ + steps_requested_ + steps;
+  steps_requested_ += steps;
+  cmd_cv_.notify_all();
+  const bool done = cmd_cv_.wait_for(lock, std::chrono::seconds(300),
+                                     [&] { return steps_done_counter_ >= target || stopping_.load() || !paused_; });
+  r.success = done && steps_done_counter_ >= target;
+  r.message = r.success ? last_status_ : "interrupted before all steps were taken";
+  r.sim_time = sim_ ? sim_->time() : 0.0;  // read under cmd_mutex_: the solver holds it while stepping on request
+  return r;
+}
+
+void SolverLoop::reconfigure(const fluid_sim::FluidSimConfig& config)
+{
+  publish_rate_ = config.publish_rate;
+  std::lock_guard<std::mutex> lock(cmd_mutex_);
+  if (config.real_time_factor != real_time_factor_.load())
+  {
+    real_time_factor_ = config.real_time_factor;
+    reanchor_ = true;
+  }
+  pending_config_ = config;
+}
+
+/// Applies a pending reset and pending settings. Called by the solver thread with cmd_mutex_ held.
+void SolverLoop::applyCommands()
+{
+  if (reset_requested_)
+  {
+    reset_requested_ = false;
+    reset_error_.clear();
+    const std::map<std::string, Pose> poses = links_.newestPoses();
+    const SolverConfig solver = sim_->scene().solver;
+    const ViscosityConfig visc = sim_->scene().viscosity;
+    const StabilityConfig stab = sim_->scene().stability;
+    try
+    {
+      build(poses);
+      sim_->updateSettings(solver, visc, stab);  // live settings survive a reset
+      steps_ = 0;
+      last_status_ = "ok";
+      ROS_INFO("reset: %zu fluid particles", sim_->numFluidParticles());
+    }
+    catch (const std::exception& e)
+    {
+      reset_error_ = std::string("reset failed: ") + e.what();
+      ROS_ERROR("%s", reset_error_.c_str());
+    }
+    reset_done_ = true;
+    cmd_cv_.notify_all();
+  }
+  if (pending_config_)
+  {
+    const fluid_sim::FluidSimConfig c = *pending_config_;
+    pending_config_.reset();
+    SolverConfig solver = sim_->scene().solver;
+    ViscosityConfig visc = sim_->scene().viscosity;
+    fromReconfigure(c, solver, visc);
+    try
+    {
+      sim_->updateSettings(solver, visc, sim_->scene().stability);
+      ROS_INFO(
+          "settings: density_error %g, divergence_error %g, iterations %d..%d, warm_start %s, viscosity %s %g "
+          "(walls %g), publish_rate %g Hz, real_time_factor %g, max_points %d",
+          c.density_error, c.divergence_error, c.min_iterations, c.max_iterations, c.warm_start ? "on" : "off",
+          c.viscosity_model.c_str(), c.viscosity_coefficient, c.boundary_viscosity, c.publish_rate, c.real_time_factor,
+          c.max_points);
+    }
+    catch (const ConfigError& e)
+    {
+      ROS_ERROR("dynamic_reconfigure: refused, the solver keeps its settings: %s", e.what());
+    }
+  }
+}
+
+// ------------------------------------------------------------------------------ the loop
+void SolverLoop::run()
+{
+  bool finished = false;
+  while (!stopping_)
+  {
+    bool stepping_on_request = false;
+    bool jump = false;
+    double rtf = 0.0;
+    {
+      std::unique_lock<std::mutex> lock(cmd_mutex_);
+      applyCommands();
+      if ((paused_ || finished) && steps_requested_ == 0)
+      {
+        lock.unlock();
+        publishPausedStats();
+        std::unique_lock<std::mutex> relock(cmd_mutex_);
+        cmd_cv_.wait_for(relock, std::chrono::milliseconds(200));
+        continue;
+      }
+      stepping_on_request = paused_ && steps_requested_ > 0;
+      rtf = real_time_factor_;
+      if (reanchor_ && !stepping_on_request && rtf > 0.0 && ros::Time::now().isZero())
+      {
+        // use_sim_time and no /clock yet: ROS time is 0 until the first message.
+        lock.unlock();
+        ROS_INFO_THROTTLE(5.0, "waiting for /clock (use_sim_time is set)");
+        std::this_thread::sleep_for(std::chrono::milliseconds(10));
+        continue;
+      }
+      if (reanchor_ && !stepping_on_request)
+      {
+        anchor_sim_ = sim_->time();
+        // Simulated time anchor_sim_ is ROS time now; steps then trail ROS time by tf_delay (see
+        // the pacing below), so tf holds poses on both sides of every instant looked up. An
+        // anchor before now could ask for poses older than tf has (a jump back and forth).
+        anchor_ros_ = ros::Time::now();
+        reanchor_ = false;
+        jump = true;
+        next_publish_sim_ = sim_->time();
+        rtf_sim0_ = sim_->time();
+        rtf_wall0_ = WallClock::now();
+      }
+    }
+
+    const double t = sim_->time();
+    const double dt = sim_->nextTimeStep();
+    const bool coupled = rtf == 1.0 && !stepping_on_request;
+    if (rtf > 0.0 && !stepping_on_request)
+    {
+      // Pace: the step from t to t + dt may run once ROS time has passed t + dt (scaled), plus the
+      // tf delay in coupled mode so that tf already holds the poses at t.
+      const ros::Time due =
+          anchor_ros_ + ros::Duration((t + dt - anchor_sim_) / rtf) + ros::Duration(coupled ? opt_.tf_delay : 0.0);
+      while (!stopping_ && ros::ok())
+      {
+        const ros::Time now = ros::Time::now();
+        if (now >= due) break;
+        if (now < anchor_ros_)
+        {
+          // ROS time went back (a bag or a simulator restarted under use_sim_time).
+          ROS_WARN("ROS time jumped back from %.3f to %.3f s; simulated time continues from there", anchor_ros_.toSec(),
+                   now.toSec());
+          std::lock_guard<std::mutex> lock(cmd_mutex_);
+          reanchor_ = true;
+          break;
+        }
+        {
+          std::lock_guard<std::mutex> lock(cmd_mutex_);
+          if (reset_requested_ || paused_ || reanchor_) break;
+        }
+        const double wait = std::min((due - now).toSec(), 0.005);
+        std::this_thread::sleep_for(std::chrono::duration<double>(std::max(wait, 1e-4)));
+      }
+      std::lock_guard<std::mutex> lock(cmd_mutex_);
+      if (reset_requested_ || paused_ || reanchor_) continue;
+      const double lag = (ros::Time::now() - due).toSec();
+      if (lag > 0.5)
+        ROS_WARN_THROTTLE(10.0,
+                          "cannot keep up with real_time_factor %g: %.2f s behind ROS time (achieving %.2f); "
+                          "lower real_time_factor, coarsen the spacing, or give it more cores",
+                          rtf, lag, rtf_measured_);
+    }
+
+    const ros::Time pose_stamp = coupled ? anchor_ros_ + ros::Duration(t - anchor_sim_) : ros::Time(0);
+    if (stopping_) break;
+
+    std::unique_lock<std::mutex> step_lock(cmd_mutex_, std::defer_lock);
+    if (stepping_on_request) step_lock.lock();  // a step service call reads sim_time under it
+    links_.poseBodies(*sim_, pose_stamp, jump);
+    const StepReport rep = sim_->step();
+    afterStep(rep, coupled);
+    if (stepping_on_request)
+    {
+      --steps_requested_;
+      ++steps_done_counter_;
+      cmd_cv_.notify_all();
+      step_lock.unlock();
+    }
+
+    if (rep.unstable)
+    {
+      last_status_ = "unstable: " + rep.reason;
+      ROS_ERROR("simulation unstable at t = %.4f s: %s. Paused; call ~reset to start again.", rep.time,
+                rep.reason.c_str());
+      publishFrame(rep, coupled);
+      std::lock_guard<std::mutex> lock(cmd_mutex_);
+      paused_ = true;
+      steps_requested_ = 0;
+      cmd_cv_.notify_all();
+      if (opt_.stop_after > 0.0)
+      {
+        finished = true;
+        printSummary();
+        if (on_finished_) on_finished_(3);
+      }
+      continue;
+    }
+    if (opt_.stop_after > 0.0 && !finished && sim_->time() >= opt_.stop_after - 1e-9)
+    {
+      publishFrame(rep, coupled);
+      finished = true;
+      printSummary();
+      if (on_finished_) on_finished_(0);
+    }
+  }
+}
+
+void SolverLoop::afterStep(const StepReport& rep, bool coupled)
+{
+  ++steps_;
+  sum_divergence_iterations_ += rep.divergence_iterations;
+  sum_density_iterations_ += rep.density_iterations;
+  sum_step_ms_ += rep.ms_total;
+  last_report_ = rep;
+  last_status_ = rep.unstable                                            ? "unstable: " + rep.reason
+                 : (!rep.density_converged || !rep.divergence_converged) ? "not_converged"
+                                                                         : "ok";
+  wrench_means_.add(*sim_, rep.dt);
+
+  const double wall = std::chrono::duration<double>(WallClock::now() - rtf_wall0_).count();
+  if (wall >= 1.0)
+  {
+    rtf_measured_ = (sim_->time() - rtf_sim0_) / wall;
+    rtf_sim0_ = sim_->time();
+    rtf_wall0_ = WallClock::now();
+  }
+  else if (rtf_measured_ == 0.0 && wall > 0.0)
+  {
+    rtf_measured_ = (sim_->time() - rtf_sim0_) / wall;
+  }
+
+  const double rate = publish_rate_;
+  bool due;
+  if (coupled)
+  {
+    due = sim_->time() >= next_publish_sim_ - 1e-12;
+    if (due) next_publish_sim_ = std::max(next_publish_sim_ + 1.0 / rate, sim_->time());
+  }
+  else
+  {
+    due = WallClock::now() >= next_publish_wall_;
+    if (due)
+      next_publish_wall_ =
+          WallClock::now() + std::chrono::duration_cast<WallClock::duration>(std::chrono::duration<double>(1.0 / rate));
+  }
+  if (due) publishFrame(rep, coupled);
+}
+
+// ------------------------------------------------------------------------------ frames
+/// Copies the state into the publishers' back frame and hands it over.
+void SolverLoop::publishFrame(const StepReport& rep, bool coupled)
+{
+  const auto t0 = WallClock::now();
+  Frame& f = publishers_.back();
+  f.stamp = coupled ? anchor_ros_ + ros::Duration(sim_->time() - anchor_sim_) : ros::Time::now();
+  f.fluid.positions = sim_->positions();
+  f.fluid.velocities = sim_->velocities();
+  f.fluid.pressures = sim_->pressures();
+  f.fluid.densities = sim_->densities();
+  bool any_moving = false;
+  for (std::size_t k = 0; k < sim_->numBodies() && !any_moving; ++k) any_moving = sim_->body(k).moving;
+  f.boundary_valid = opt_.publish_boundary && (boundary_dirty_ || any_moving);
+  if (f.boundary_valid)
+  {
+    f.boundary = sim_->boundaryPositions();
+    f.boundary_pressure = sim_->boundaryPressures();
+    f.body_ranges = body_ranges_;
+    boundary_dirty_ = false;
+  }
+  f.wrenches.header.stamp = f.stamp;
+  f.wrenches.header.frame_id = opt_.fixed_frame;
+  wrench_means_.take(*sim_, f.wrenches.wrenches);
+  f.stats = toSolverStats(rep, *sim_, rtf_measured_, paused_, last_status_);
+  f.stats.header.stamp = f.stamp;
+  f.stats.header.frame_id = opt_.fixed_frame;
+  sum_copy_ms_ += msSince(t0);
+  ++frames_;
+  publishers_.handOver();
+}
+
+void SolverLoop::publishPausedStats()
+{
+  if (WallClock::now() - last_paused_stats_ < std::chrono::seconds(1)) return;
+  last_paused_stats_ = WallClock::now();
+  fluid_msgs::SolverStats s = toSolverStats(last_report_, *sim_, rtf_measured_, true, last_status_);
+  s.header.stamp = ros::Time::now();
+  s.header.frame_id = opt_.fixed_frame;
+  publishers_.publishStats(s);
+}
+
+void SolverLoop::printSummary()
+{
+  const double wall = std::chrono::duration<double>(WallClock::now() - run_start_).count();
+  const double n = steps_ > 0 ? double(steps_) : 1.0;
+  std::ostringstream os;
+  os << "fluid_sim: finished at t = " << sim_->time() << " s after " << steps_ << " steps in " << wall
+     << " s wall (real-time factor " << (wall > 0 ? sim_->time() / wall : 0.0) << ")\n"
+     << "  status " << last_status_ << "; fluid particles " << sim_->numFluidParticles() << ", removed "
+     << sim_->removedTotal() << "\n"
+     << "  per step: " << sum_step_ms_ / n << " ms, divergence iterations " << sum_divergence_iterations_ / n
+     << ", density iterations " << sum_density_iterations_ / n << "; last density error " << last_report_.density_error
+     << "\n"
+     << "  publishing: " << frames_ << " frames, copying a frame out of the solver took "
+     << (frames_ ? sum_copy_ms_ / double(frames_) : 0.0) << " ms ("
+     << (frames_ ? 100.0 * (sum_copy_ms_ / frames_) / (sum_step_ms_ / n) : 0.0) << " % of a step)\n";
+  for (std::size_t k = 0; k < sim_->numBodies(); ++k)
+  {
+    const BodyInfo b = sim_->body(k);
+    os << "  " << b.name << ": force [" << b.force_body.x() << ", " << b.force_body.y() << ", " << b.force_body.z()
+       << "] N, torque [" << b.torque_body.x() << ", " << b.torque_body.y() << ", " << b.torque_body.z()
+       << "] N m (link frame), " << b.contact_particles << " contact particles\n";
+  }
+  std::fputs(os.str().c_str(), stdout);
+  std::fflush(stdout);
+}
+
+}  // namespace ros_bridge
+}  // namespace fluid_sim
