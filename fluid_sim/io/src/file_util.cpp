@@ -5,12 +5,34 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <stdexcept>
+
+#include "fluid_sim/core/types.h"
 
 namespace fluid_sim
 {
 namespace io
 {
+std::ifstream openForReading(const std::string& path, const std::string& kind)
+{
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) throw ConfigError(path, "no such file");
+  if (std::filesystem::is_directory(path, ec)) throw ConfigError(path, "is a directory, not a " + kind);
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw ConfigError(path, std::string("cannot open: ") + std::strerror(errno));
+  return in;
+}
+
+std::string readTextFile(const std::string& path, const std::string& kind)
+{
+  std::ifstream in = openForReading(path, kind);
+  std::ostringstream text;
+  text << in.rdbuf();
+  if (in.bad()) throw ConfigError(path, std::string("cannot read: ") + std::strerror(errno));
+  return text.str();
+}
+
 void writeFileAtomically(const std::string& path, const std::string& contents)
 {
   const std::string tmp = path + ".tmp";

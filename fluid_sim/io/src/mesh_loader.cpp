@@ -7,16 +7,14 @@
 #include <algorithm>
 #include <assimp/Importer.hpp>
 #include <cctype>
-#include <cerrno>
 #include <cmath>
-#include <cstring>
 #include <filesystem>
-#include <fstream>
-#include <map>
 #include <unordered_map>
 #include <utility>
 
+#include "fluid_sim/core/cell_key.h"
 #include "fluid_sim/core/mesh_inside_index.h"
+#include "fluid_sim/io/file_util.h"
 #include "fluid_sim/io/mesh_topology.h"
 
 namespace fluid_sim
@@ -87,29 +85,13 @@ void collect(const aiScene& scene, const aiNode& node, const Eigen::Matrix4d& pa
 /// Joins vertices closer than `eps` (m): the first of a cluster stands for it.
 std::vector<int> joinVertices(const std::vector<Vec3d>& vertices, double eps, std::vector<Vec3d>& joined)
 {
-  struct Key
-  {
-    long long x, y, z;
-    bool operator==(const Key& o) const
-    {
-      return x == o.x && y == o.y && z == o.z;
-    }
-  };
-  struct KeyHash
-  {
-    std::size_t operator()(const Key& k) const
-    {
-      return std::size_t(k.x * 73856093LL ^ k.y * 19349663LL ^ k.z * 83492791LL);
-    }
-  };
-  std::unordered_map<Key, std::vector<int>, KeyHash> cells;
+  std::unordered_map<CellKey, std::vector<int>, CellKeyHash> cells;  // cells of side eps
   std::vector<int> map(vertices.size());
   const double eps2 = eps * eps;
   for (std::size_t i = 0; i < vertices.size(); ++i)
   {
     const Vec3d& p = vertices[i];
-    const Key key{(long long)std::floor(p.x() / eps), (long long)std::floor(p.y() / eps),
-                  (long long)std::floor(p.z() / eps)};
+    const CellKey key = cellKeyOf(p, eps);
     int found = -1;
     for (long long dz = -1; dz <= 1 && found < 0; ++dz)
       for (long long dy = -1; dy <= 1 && found < 0; ++dy)
@@ -160,26 +142,9 @@ int segmentsFor(double radius, double max_error)
 }
 }  // namespace
 
-std::size_t borderEdges(const TriangleMesh& mesh)
-{
-  std::map<std::pair<int, int>, int> directed;
-  for (const auto& t : mesh.triangles)
-    for (int k = 0; k < 3; ++k) ++directed[{t[k], t[(k + 1) % 3]}];
-  std::size_t border = 0;
-  for (const auto& [edge, count] : directed)
-    if (directed.find({edge.second, edge.first}) == directed.end()) border += static_cast<std::size_t>(count);
-  return border;
-}
-
 MeshFile readMeshFile(const std::string& path, const Vec3d& scale)
 {
-  std::error_code ec;
-  if (!fs::exists(path, ec)) throw ConfigError(path, "no such file");
-  if (fs::is_directory(path, ec)) throw ConfigError(path, "is a directory, not a mesh file");
-  {
-    std::ifstream probe(path, std::ios::binary);
-    if (!probe) throw ConfigError(path, std::string("cannot open: ") + std::strerror(errno));
-  }
+  openForReading(path, "mesh file");  // a missing or unreadable file, before assimp tries it
   const std::string ext = lower(fs::path(path).extension().string());
   Assimp::Importer importer;
   if (ext.empty() || !importer.IsExtensionSupported(ext))
@@ -218,7 +183,6 @@ MeshFile readMeshFile(const std::string& path, const Vec3d& scale)
   }
   const double diagonal = (hi - lo).norm();
   MeshFile out;
-  out.dropped_primitives = soup.dropped_primitives;
   if (!(diagonal > 0.0)) throw ConfigError(path, "all vertices coincide: the mesh has no extent (scale zero?)");
   const std::vector<int> map = joinVertices(soup.vertices, 1e-7 * diagonal, out.mesh.vertices);
   const bool flip = scale.prod() < 0.0;

@@ -7,13 +7,22 @@ namespace fluid_sim
 {
 namespace io
 {
-bool isClosedMesh(const TriangleMesh& mesh)
+namespace
 {
-  if (mesh.triangles.empty()) return false;
-  // Directed edge (a, b) -> how often a triangle runs along it.
+/// Directed edge (a, b) -> how often a triangle runs along it (from vertex a to vertex b).
+std::map<std::pair<int, int>, int> directedEdges(const TriangleMesh& mesh)
+{
   std::map<std::pair<int, int>, int> directed;
   for (const auto& t : mesh.triangles)
     for (int k = 0; k < 3; ++k) ++directed[{t[k], t[(k + 1) % 3]}];
+  return directed;
+}
+}  // namespace
+
+bool isClosedMesh(const TriangleMesh& mesh)
+{
+  if (mesh.triangles.empty()) return false;
+  const std::map<std::pair<int, int>, int> directed = directedEdges(mesh);
   for (const auto& [edge, count] : directed)
   {
     if (count != 1) return false;  // two triangles wound the same way along one edge, or a repeated triangle
@@ -21,6 +30,15 @@ bool isClosedMesh(const TriangleMesh& mesh)
     if (twin == directed.end()) return false;  // a border edge
   }
   return true;
+}
+
+std::size_t borderEdges(const TriangleMesh& mesh)
+{
+  const std::map<std::pair<int, int>, int> directed = directedEdges(mesh);
+  std::size_t border = 0;
+  for (const auto& [edge, count] : directed)
+    if (directed.find({edge.second, edge.first}) == directed.end()) border += static_cast<std::size_t>(count);
+  return border;
 }
 
 double signedVolume(const TriangleMesh& mesh)

@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cstdlib>
 #include <filesystem>
-#include <fstream>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -11,6 +10,7 @@
 #include <sstream>
 
 #include "fluid_sim/core/types.h"
+#include "fluid_sim/io/file_util.h"
 
 namespace fluid_sim
 {
@@ -65,12 +65,17 @@ void crawl(const fs::path& folder, int depth_left, PackageIndex& index)
 
 std::string packageNameOf(const std::string& package_xml)
 {
-  std::ifstream in(package_xml, std::ios::binary);
-  if (!in) return "";
-  std::ostringstream text;
-  text << in.rdbuf();
+  std::string text;
+  try
+  {
+    text = readTextFile(package_xml, "package.xml file");
+  }
+  catch (const ConfigError&)
+  {
+    return "";
+  }
   // Comments may hold example tags; drop them before looking for <name>.
-  const std::string xml = std::regex_replace(text.str(), std::regex("<!--[\\s\\S]*?-->"), "");
+  const std::string xml = std::regex_replace(text, std::regex("<!--[\\s\\S]*?-->"), "");
   std::smatch match;
   if (!std::regex_search(xml, match, std::regex("<name>\\s*([^<\\s]+)\\s*</name>"))) return "";
   return match[1].str();

@@ -3,18 +3,15 @@
 #include <console_bridge/console.h>
 #include <urdf_parser/urdf_parser.h>
 
-#include <cerrno>
 #include <cmath>
-#include <cstring>
 #include <filesystem>
-#include <fstream>
 #include <mutex>
 #include <set>
-#include <sstream>
 
 #include "fluid_sim/core/mesh_inside_index.h"
+#include "fluid_sim/io/file_util.h"
 #include "fluid_sim/io/mesh_loader.h"
-#include "fluid_sim/io/mesh_topology.h"
+#include "fluid_sim/io/message_names.h"
 
 namespace fluid_sim
 {
@@ -71,13 +68,6 @@ Pose toPose(const urdf::Pose& p)
   out.translation = toVec(p.position);
   out.rotation = Eigen::Quaterniond(p.rotation.w, p.rotation.x, p.rotation.y, p.rotation.z).normalized();
   return out;
-}
-
-std::string joinNames(const std::vector<std::string>& names)
-{
-  std::string out;
-  for (const auto& n : names) out += (out.empty() ? "" : ", ") + n;
-  return out.empty() ? "none" : out;
 }
 
 /// "link 'paddle', collision[1] (name 'blade')": where in the URDF a problem is.
@@ -242,15 +232,7 @@ UrdfRobot parseUrdf(const std::string& xml, const std::string& source, const std
 
 UrdfRobot readUrdfFile(const std::string& path)
 {
-  std::error_code ec;
-  if (!fs::exists(path, ec)) throw ConfigError(path, "no such file");
-  if (fs::is_directory(path, ec)) throw ConfigError(path, "is a directory, not a URDF file");
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw ConfigError(path, std::string("cannot open: ") + std::strerror(errno));
-  std::ostringstream text;
-  text << in.rdbuf();
-  if (in.bad()) throw ConfigError(path, std::string("cannot read: ") + std::strerror(errno));
-  return parseUrdf(text.str(), path, fs::path(path).parent_path().string());
+  return parseUrdf(readTextFile(path, "URDF file"), path, fs::path(path).parent_path().string());
 }
 
 std::map<std::string, Pose> linkPoses(const UrdfRobot& robot, const JointPositions& positions, const Pose& root_pose,
@@ -261,7 +243,9 @@ std::map<std::string, Pose> linkPoses(const UrdfRobot& robot, const JointPositio
   for (const auto& [name, value] : positions)
   {
     const UrdfJoint* j = robot.joint(name);
-    if (!j) throw ConfigError(robot.source, "unknown joint '" + name + "' (joints: " + joinNames(joint_names) + ")");
+    if (!j)
+      throw ConfigError(robot.source,
+                        "unknown joint '" + name + "' (joints: " + joinNames(joint_names, ", ", "none") + ")");
     if (j->type == UrdfJointType::Fixed || j->type == UrdfJointType::Floating || j->type == UrdfJointType::Planar)
       throw ConfigError(robot.source, "joint '" + name + "' is " +
                                           (j->type == UrdfJointType::Fixed ? "fixed" : "floating or planar") +
@@ -384,7 +368,8 @@ std::vector<BoundaryConfig> urdfBoundaries(const UrdfRobot& robot, const UrdfBou
   for (const auto& name : selected)
   {
     if (!robot.link(name))
-      throw ConfigError(robot.source, "unknown link '" + name + "' (links: " + joinNames(all_links) + ")");
+      throw ConfigError(robot.source,
+                        "unknown link '" + name + "' (links: " + joinNames(all_links, ", ", "none") + ")");
     if (!seen.insert(name).second) throw ConfigError(robot.source, "link '" + name + "' is listed twice");
   }
   const std::map<std::string, Pose> poses = linkPoses(robot, options.joint_positions, options.root_pose, warnings);

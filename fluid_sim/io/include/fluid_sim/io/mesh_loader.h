@@ -18,9 +18,8 @@ struct MeshFile
 {
   TriangleMesh mesh;                     // m, in the file's frame; outward-oriented if closed; inside index built
   bool closed = false;                   // isClosedMesh(mesh)
-  std::size_t border_edges = 0;          // edges with no opposite twin (0 for a closed mesh)
+  std::size_t border_edges = 0;          // borderEdges(mesh): 0 for a closed mesh
   std::size_t degenerate_triangles = 0;  // zero area: kept for the topology, skipped when sampling
-  std::size_t dropped_primitives = 0;    // points and lines (not surfaces), dropped
 };
 
 /// Reads every triangle of a mesh file into one mesh in the file's frame, each vertex multiplied
@@ -48,10 +47,6 @@ TriangleMesh sphereMesh(double radius, double max_error);
 
 /// Appends `part`, moved by `pose`, to `mesh` (vertex indices offset; nothing is joined).
 void appendMesh(TriangleMesh& mesh, const TriangleMesh& part, const Pose& pose = Pose());
-
-/// Number of directed edges without an opposite twin: 0 for a closed, consistently wound mesh,
-/// the rim of an open one (a cup's brim) otherwise.
-std::size_t borderEdges(const TriangleMesh& mesh);
 
 /// Notes (not errors) about a surface, each starting with `what`: degenerate triangles skipped, and
 /// a surface that is not closed (sampled as a thin shell, nothing removed from inside it).

@@ -1,7 +1,9 @@
 #pragma once
-// Topology checks on triangle meshes read by io (inline scene meshes now, mesh files and URDF
-// collision meshes later): whether a mesh is closed, and orienting a closed one outward, as
-// core's boundary sampling assumes (BoundaryConfig::mesh_closed).
+// Topology of the triangle meshes io reads (inline scene meshes, mesh files, URDF collision
+// geometry): whether a mesh is closed, its border edges, its signed volume, and orienting a closed
+// mesh outward, as core's boundary sampling assumes (BoundaryConfig::mesh_closed).
+
+#include <cstddef>
 
 #include "fluid_sim/core/scene_config.h"
 
@@ -13,6 +15,10 @@ namespace io
 /// a closed, consistently oriented surface. Open meshes (a cup, a paddle) and inconsistently
 /// wound ones are not closed.
 bool isClosedMesh(const TriangleMesh& mesh);
+
+/// Number of directed edges without an opposite twin: 0 for a closed, consistently wound mesh,
+/// the rim of an open one (a cup's brim) otherwise.
+std::size_t borderEdges(const TriangleMesh& mesh);
 
 /// Volume enclosed by a closed mesh, m^3 (divergence theorem); negative if its normals point inward.
 double signedVolume(const TriangleMesh& mesh);

@@ -83,15 +83,15 @@ public:
 
 private:
   std::vector<std::string> body_names_;
-  std::vector<double> times_;     // s, simulated time after each step
-  std::vector<double> dts_;       // s, each step
-  std::vector<Wrench> wrenches_;  // steps x bodies, row-major
-  double start_time_ = 0.0;       // s, simulated time before the first step
-  double step_ms_ = 0.0;          // sum of wall_ms
-  double divergence_iterations_ = 0.0;
-  double density_iterations_ = 0.0;
-  double density_error_sum_ = 0.0;
-  double density_error_max_ = 0.0;
+  std::vector<double> times_;           // s, simulated time after each step
+  std::vector<double> dts_;             // s, each step
+  std::vector<Wrench> wrenches_;        // N and N m, steps x bodies, row-major
+  double start_time_ = 0.0;             // s, simulated time before the first step
+  double step_ms_ = 0.0;                // ms, sum of wall_ms
+  double divergence_iterations_ = 0.0;  // sum over the steps
+  double density_iterations_ = 0.0;     // sum over the steps
+  double density_error_sum_ = 0.0;      // relative, sum over the steps
+  double density_error_max_ = 0.0;      // relative
 };
 
 /// The summary as pretty-printed JSON text. Keys: summary_version, scene, overrides, method,

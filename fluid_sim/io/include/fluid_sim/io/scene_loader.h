@@ -2,7 +2,7 @@
 // Scene YAML -> SceneConfig. Strict: an unknown key, a value of the wrong type or a value that
 // fails validate() throws SceneError, whose what() reads "<file>: <dotted.key>: <message>".
 // The schema (every key, its unit and default) is documented next to the fields in
-// fluid_sim/core/scene_config.h.
+// fluid_sim/core/scene_config.h; the strict reading is yaml_reader.h, --set is scene_overrides.h.
 
 #include <string>
 #include <vector>

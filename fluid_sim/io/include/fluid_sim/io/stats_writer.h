@@ -25,7 +25,8 @@ public:
   /// Columns: t, dt (s); density_error, divergence_error (relative); max_speed (m/s);
   /// fluid_particles (after the step); removed (this step); then max_density_error (relative),
   /// ms_neighbors, ms_divergence, ms_density (ms), mls_fallbacks, mls_reduced, active_boundary
-  /// (boundary particles), divergence_converged, density_converged (0 | 1).
+  /// (boundary particles), divergence_converged, density_converged (0 | 1), kinetic_energy (J),
+  /// boundary_pressure_work (J).
   void write(std::size_t step, const StepReport& report, double wall_ms);
 
   /// Flushes buffered rows; throws std::runtime_error if the file could not be written.

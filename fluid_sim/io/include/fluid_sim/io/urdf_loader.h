@@ -64,8 +64,8 @@ struct UrdfJoint
   bool has_limits = false;
   double lower = 0.0, upper = 0.0;  // rad or m, when has_limits
   std::string mimic;                // joint this one follows ("" if none)
-  double mimic_multiplier = 1.0;
-  double mimic_offset = 0.0;  // rad or m
+  double mimic_multiplier = 1.0;    // unit-less: position = multiplier * leader + offset
+  double mimic_offset = 0.0;        // rad or m
 };
 
 struct UrdfRobot
@@ -109,10 +109,10 @@ std::map<std::string, Pose> linkPoses(const UrdfRobot& robot, const JointPositio
 /// the mesh file for anything that cannot be read.
 struct LinkSurface
 {
-  TriangleMesh mesh;  // link frame, m; inside index built
-  bool closed = true;
-  std::size_t degenerate_triangles = 0;
-  std::size_t border_edges = 0;
+  TriangleMesh mesh;                     // link frame, m; inside index built
+  bool closed = true;                    // every part closed
+  std::size_t degenerate_triangles = 0;  // summed over the mesh-file parts
+  std::size_t border_edges = 0;          // summed over the mesh-file parts
 };
 LinkSurface linkSurface(const UrdfRobot& robot, const UrdfLink& link, double spacing, const PackageResolver& packages);
 
