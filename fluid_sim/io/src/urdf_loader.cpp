@@ -64,10 +64,7 @@ Vec3d toVec(const urdf::Vector3& v)
 
 Pose toPose(const urdf::Pose& p)
 {
-  Pose out;
-  out.translation = toVec(p.position);
-  out.rotation = Eigen::Quaterniond(p.rotation.w, p.rotation.x, p.rotation.y, p.rotation.z).normalized();
-  return out;
+  return Pose::fromTranslationQuaternion(toVec(p.position), p.rotation.w, p.rotation.x, p.rotation.y, p.rotation.z);
 }
 
 /// "link 'paddle', collision[1] (name 'blade')": where in the URDF a problem is.

@@ -104,10 +104,7 @@ Pose toPose(const geometry_msgs::Transform& transform)
 {
   const geometry_msgs::Vector3& t = transform.translation;
   const geometry_msgs::Quaternion& q = transform.rotation;
-  Pose p;
-  p.translation = Vec3d(t.x, t.y, t.z);
-  p.rotation = Eigen::Quaterniond(q.w, q.x, q.y, q.z).normalized();
-  return p;
+  return Pose::fromTranslationQuaternion(Vec3d(t.x, t.y, t.z), q.w, q.x, q.y, q.z);
 }
 
 fluid_msgs::SolverStats toSolverStats(const StepReport& report, const Simulation& sim, double real_time_factor,

@@ -41,6 +41,15 @@ struct Pose
     pose.translation = xyz;
     return pose;
   }
+  /// From a translation (m) and a rotation quaternion (w, x, y, z), normalised here: the form of
+  /// URDF origins and tf transforms.
+  static Pose fromTranslationQuaternion(const Vec3d& xyz, double qw, double qx, double qy, double qz)
+  {
+    Pose pose;
+    pose.translation = xyz;
+    pose.rotation = Eigen::Quaterniond(qw, qx, qy, qz).normalized();
+    return pose;
+  }
   Pose operator*(const Pose& other) const
   {
     Pose out;
