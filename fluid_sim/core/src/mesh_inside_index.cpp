@@ -1,7 +1,13 @@
+// The inside test of closed triangle meshes: the winding number along a slightly skewed +x ray,
+// by brute force (windingNumber) or over the triangles binned by their (y, z) footprint
+// (MeshInsideIndex).
+
 #include "fluid_sim/core/mesh_inside_index.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <utility>
 
 namespace fluid_sim
 {
@@ -30,12 +36,13 @@ int crossing(const Vec3d& a, const Vec3d& b, const Vec3d& c, const Vec3d& p, con
   if (e2.dot(qv) * inv <= 0.0) return 0;  // behind the start
   return det < 0.0 ? 1 : -1;
 }
-}  // namespace
 
+/// The ray direction of the inside test (unit, close to +x).
 Vec3d insideRayDirection()
 {
   return Vec3d(1.0, kSkewY, kSkewZ).normalized();
 }
+}  // namespace
 
 int windingNumber(const TriangleMesh& mesh, const Vec3d& p)
 {

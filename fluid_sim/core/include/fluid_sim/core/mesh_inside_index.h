@@ -6,6 +6,7 @@
 // count as their union, and a hollow part (an outer surface and an inward-facing inner one) as the
 // material between them.
 
+#include <cstddef>
 #include <cstdint>
 #include <memory>
 #include <vector>
@@ -40,9 +41,6 @@ private:
   std::vector<std::uint32_t> start_;      // CSR row starts, ny_ * nz_ + 1
   std::vector<std::uint32_t> triangles_;  // triangle indices per bin
 };
-
-/// The ray direction of the inside test (unit, close to +x).
-Vec3d insideRayDirection();
 
 /// Winding number of `mesh` around p by testing every triangle (no index); see MeshInsideIndex.
 int windingNumber(const TriangleMesh& mesh, const Vec3d& p);
