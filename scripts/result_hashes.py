@@ -109,7 +109,8 @@ def compare(args):
     a = {key(e): e for e in json.load(open(args.before))["runs"]}
     b = {key(e): e for e in json.load(open(args.after))["runs"]}
     bad = 0
-    for k in sorted(set(a) | set(b)):
+    keys = set(a) & set(b) if args.common else set(a) | set(b)
+    for k in sorted(keys):
         if k not in a or k not in b:
             print("only in one file:", k)
             bad += 1
@@ -123,7 +124,7 @@ def compare(args):
         if diffs:
             bad += 1
             print("DIFFERENT %s: %s" % (k, ", ".join(diffs)))
-    total = len(set(a) | set(b))
+    total = len(keys)
     print("%d of %d runs identical" % (total - bad, total))
     return 1 if bad else 0
 
@@ -141,6 +142,7 @@ def main():
     c = sub.add_parser("compare", help="compare two fingerprint files")
     c.add_argument("before")
     c.add_argument("after")
+    c.add_argument("--common", action="store_true", help="compare only the runs both files hold")
     args = ap.parse_args()
     sys.exit(record(args) if args.cmd == "record" else compare(args))
 
