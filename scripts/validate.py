@@ -919,7 +919,10 @@ def case5(S):
     axs[0, 0].legend(handles=handles, fontsize=7)
     S.savefig(fig, "case5_speed_error.png")
 
-    # checks: a tighter tolerance lowers the density error and costs time (both cases, every spacing)
+    # checks: a tighter tolerance lowers the density error and costs more density-solver iterations per
+    # step (both cases, every spacing). The cost is counted in iterations, not wall seconds: the
+    # iterations are the same on any machine, while wall time on a loaded one can invert the order
+    # (seen: 32.7 s/s at tol 0.01 against 23.6 s/s at tol 0.001 while other jobs ran).
     for kind, sp in (("dam", dspac), ("deep", deep_spac)):
         for m in methods:
             for s in sp:
@@ -928,11 +931,12 @@ def case5(S):
                 if lo["status"] != "ok" or hi["status"] != "ok":
                     S.check(5, "%s %s s=%g: runs stable" % (kind, m, s), False, "%s / %s" % (lo["status"], hi["status"]))
                     continue
-                S.check(5, "%s %s s=%g: tol %g -> %g lowers density error and costs more" % (kind, m, s, max(rr),
-                                                                                        min(rr)),
-                        hi["density_err"] < lo["density_err"] and hi["sec_per_s"] > lo["sec_per_s"],
-                        "err %.3g -> %.3g, %.3g -> %.3g s/s" % (lo["density_err"], hi["density_err"], lo["sec_per_s"],
-                                                                  hi["sec_per_s"]))
+                S.check(5, "%s %s s=%g: tol %g -> %g lowers density error and costs more iterations" % (
+                    kind, m, s, max(rr), min(rr)),
+                        hi["density_err"] < lo["density_err"] and hi["iters"] > lo["iters"],
+                        "err %.3g -> %.3g, %.3g -> %.3g density iterations per step, %.3g -> %.3g s/s" % (
+                            lo["density_err"], hi["density_err"], lo["iters"], hi["iters"], lo["sec_per_s"],
+                            hi["sec_per_s"]))
     md = ["## 5. Speed against error\n"]
     md.append("Every run of the dam break (case 4's scene at spacings %s mm) and of the deep column (1 m deep, "
               "spacings %s mm, %g s) at density tolerances %s, for %s; one point per run, wall time per simulated "
