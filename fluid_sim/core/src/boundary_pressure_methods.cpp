@@ -125,7 +125,7 @@ void MlsBoundaryPressure::prepare()
   const FluidParticles& fluid = in_.fluid;
   const SolverConfig& solver = in_.scene.solver;
   const Real mass = in_.constants.mass;
-  std::fill(constant_.begin(), constant_.end(), 0);
+  // constant_ stays zero for MLS (set at construction, never written): no per-step refill.
   const std::size_t na = active_.size();
   fit_kind_.assign(na, 0);
   parallelRanges(na, 256, [&](const tbb::blocked_range<std::size_t>& r) {
