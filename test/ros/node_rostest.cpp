@@ -292,18 +292,23 @@ TEST(Tank, PauseStepAndResetDoWhatTheySay)
 
 // ------------------------------------------------------------------------------ pusher.test
 // The node (rtf 1, in step with ROS time) follows the `pusher` link, which this test lowers
-// into the water on tf.
+// into the water on tf. ROS time is simulated (use_sim_time): this test publishes /clock and
+// advances it only while the node keeps up, so a slow or loaded machine changes how long the
+// test takes, never what the node sees.
 
 TEST(Pusher, MovingALinkThroughTfMovesItsParticlesAndItsWrench)
 {
   tf2_ros::TransformBroadcaster tf;
   ros::NodeHandle nh;
+  ros::Publisher clock_pub = nh.advertise<rosgraph_msgs::Clock>("/clock", 10);
   std::mutex m;
   std::vector<std::pair<double, double>> force_z;  // (stamp, N)
+  double last_stamp = 0;                           // newest wrench message's stamp, s of ROS time
   sensor_msgs::PointCloud2::ConstPtr boundary;
   auto wsub = nh.subscribe<fluid_msgs::ContactWrenchArray>(
       "/fluid_sim/contact_wrenches", 100, [&](const fluid_msgs::ContactWrenchArray::ConstPtr& msg) {
         std::lock_guard<std::mutex> lock(m);
+        last_stamp = std::max(last_stamp, msg->header.stamp.toSec());
         for (const auto& w : msg->wrenches)
           if (w.link == "pusher") force_z.emplace_back(msg->header.stamp.toSec(), w.wrench.force.z);
       });
@@ -326,18 +331,49 @@ TEST(Pusher, MovingALinkThroughTfMovesItsParticlesAndItsWrench)
     return n ? sum / n : double(NAN);
   };
 
-  // Hold the cube above the water (bottom at 0.21 m, water 0.15 m deep) until the node runs.
-  const double z_high = 0.25, z_low = 0.09;
-  ros::Rate rate(100);
-  const ros::WallTime start_wait = ros::WallTime::now();
-  while (ros::ok() && (ros::WallTime::now() - start_wait).toSec() < 60.0)
-  {
-    tf.sendTransform(transform("pusher", 0.2, 0.1, z_high, ros::Time::now()));
+  // The clock starts at 1000 s and moves in 5 ms ticks, each with the pusher's pose at that
+  // instant on tf. A tick waits while the node's newest frame is more than `max_lead` behind
+  // the clock (the node trails ROS time by tf_delay, 0.1 s, plus up to one publish period,
+  // 0.05 s, by design). Wall time only bounds the whole test.
+  const double tick = 0.005, max_lead = 0.3, t_start = 1000.0;
+  double now = t_start;
+  const ros::WallTime wall_start = ros::WallTime::now();
+  auto wallLeft = [&]() { return (ros::WallTime::now() - wall_start).toSec() < 200.0; };
+  auto advance = [&](double z) {
+    now += tick;
+    tf.sendTransform(transform("pusher", 0.2, 0.1, z, ros::Time(now)));
+    rosgraph_msgs::Clock c;
+    c.clock = ros::Time(now);
+    clock_pub.publish(c);
+    bool started;
     {
       std::lock_guard<std::mutex> lock(m);
-      if (force_z.size() >= 10 && boundary) break;
+      started = last_stamp > 0;
     }
-    rate.sleep();
+    if (!started)
+    {
+      // Before its first frame the node is still starting (it waits for /clock and tf, then
+      // anchors to the clock): let the clock run at wall speed until then.
+      ros::WallDuration(tick).sleep();
+      return;
+    }
+    while (ros::ok() && wallLeft())
+    {
+      {
+        std::lock_guard<std::mutex> lock(m);
+        if (now - last_stamp < max_lead) return;
+      }
+      ros::WallDuration(0.001).sleep();
+    }
+  };
+
+  // Hold the cube above the water (bottom at 0.21 m, water 0.15 m deep) until the node runs.
+  const double z_high = 0.25, z_low = 0.09;
+  while (ros::ok() && wallLeft())
+  {
+    advance(z_high);
+    std::lock_guard<std::mutex> lock(m);
+    if (force_z.size() >= 10 && boundary) break;
   }
   const double z_before = pusherMeanZ();
   ASSERT_NEAR(z_before, z_high, 0.01) << "the node did not start or does not place the pusher";
@@ -350,27 +386,29 @@ TEST(Pusher, MovingALinkThroughTfMovesItsParticlesAndItsWrench)
   EXPECT_NEAR(above, 0.0, 0.2) << "force on the cube in the air";
 
   // Lower it at 0.1 m/s to z_low (fully under water), then hold it there for 1.5 s.
-  const ros::Time t0 = ros::Time::now();
+  const double t0 = now;
   const double descent = (z_high - z_low) / 0.1;
-  ros::Time hold_start;
-  while (ros::ok())
+  const double hold_start = t0 + descent;
+  auto zAt = [&](double t) { return t - t0 < descent ? z_high - 0.1 * (t - t0) : z_low; };
+  while (ros::ok() && wallLeft() && now < hold_start + 1.5) advance(zAt(now + tick));
+  // Keep the clock going (cube held) until the node has published a frame from after the hold.
+  while (ros::ok() && wallLeft())
   {
-    const ros::Time now = ros::Time::now();
-    const double s = (now - t0).toSec();
-    const double z = s < descent ? z_high - 0.1 * s : z_low;
-    tf.sendTransform(transform("pusher", 0.2, 0.1, z, now));
-    if (s >= descent && hold_start.isZero()) hold_start = now;
-    if (s > descent + 1.5) break;
-    rate.sleep();
+    {
+      std::lock_guard<std::mutex> lock(m);
+      if (last_stamp >= hold_start + 1.5 && boundary && boundary->header.stamp.toSec() >= hold_start + 1.5) break;
+    }
+    advance(z_low);
   }
-  ros::WallDuration(0.4).sleep();  // the node trails ROS time by tf_delay (0.1 s)
+  ASSERT_TRUE(wallLeft()) << "the node fell behind: newest frame at " << last_stamp - t_start << " s, clock at "
+                          << now - t_start << " s";
   EXPECT_NEAR(pusherMeanZ(), z_low, 0.01) << "boundary particles did not follow tf";
 
   std::lock_guard<std::mutex> lock(m);
   double sum = 0;
   int n = 0;
   for (const auto& [stamp, fz] : force_z)
-    if (stamp > hold_start.toSec() + 0.5)
+    if (stamp > hold_start + 0.5 && stamp <= hold_start + 1.5)
     {
       sum += fz;
       ++n;
@@ -381,8 +419,8 @@ TEST(Pusher, MovingALinkThroughTfMovesItsParticlesAndItsWrench)
   const double buoyancy = 1000.0 * 9.81 * 0.08 * 0.08 * 0.08;
   EXPECT_GT(sum / n, 0.6 * buoyancy) << "mean force z under water " << sum / n << " N";
   EXPECT_LT(sum / n, 1.6 * buoyancy) << "mean force z under water " << sum / n << " N";
-  std::printf("pusher: above water %.3f N, under water %.3f N (rho g V = %.3f N), %d messages\n", above, sum / n,
-              buoyancy, n);
+  std::printf("pusher: above water %.3f N, under water %.3f N (rho g V = %.3f N), %d messages, %.1f s wall\n",
+              above, sum / n, buoyancy, n, (ros::WallTime::now() - wall_start).toSec());
 }
 
 // ------------------------------------------------------------------------------ simtime.test
