@@ -419,8 +419,8 @@ TEST(Pusher, MovingALinkThroughTfMovesItsParticlesAndItsWrench)
   const double buoyancy = 1000.0 * 9.81 * 0.08 * 0.08 * 0.08;
   EXPECT_GT(sum / n, 0.6 * buoyancy) << "mean force z under water " << sum / n << " N";
   EXPECT_LT(sum / n, 1.6 * buoyancy) << "mean force z under water " << sum / n << " N";
-  std::printf("pusher: above water %.3f N, under water %.3f N (rho g V = %.3f N), %d messages, %.1f s wall\n",
-              above, sum / n, buoyancy, n, (ros::WallTime::now() - wall_start).toSec());
+  std::printf("pusher: above water %.3f N, under water %.3f N (rho g V = %.3f N), %d messages, %.1f s wall\n", above,
+              sum / n, buoyancy, n, (ros::WallTime::now() - wall_start).toSec());
 }
 
 // ------------------------------------------------------------------------------ simtime.test
