@@ -2,6 +2,10 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+
+#include "fluid_sim/core/bodies.h"
+
 using namespace fluid_sim;
 
 namespace
@@ -117,6 +121,174 @@ TEST(Simulation, ScriptedRotationMovesBoundaryParticlesRigidly)
     const Vec3 expected(2 * c.x() - start[k].x(), 2 * c.y() - start[k].y(), start[k].z());
     EXPECT_LT((sim.boundaryPositions()[k] - expected).norm(), 1e-4) << k;
   }
+}
+
+namespace
+{
+/// A box paddle turning about (0.35, 0.05, 0.05) while translating, placed with a yaw.
+BoundaryConfig scriptedPaddle()
+{
+  BoundaryConfig paddle;
+  paddle.name = "paddle";
+  paddle.type = ShapeType::Box;
+  paddle.box = {Vec3d(-0.05, -0.05, -0.05), Vec3d(0.05, 0.05, 0.05)};
+  paddle.pose = Pose::fromXyzRpy(Vec3d(0.3, 0.02, 0.04), Vec3d(0.1, 0, 0.3));
+  paddle.motion.angular_velocity = Vec3d(0.5, 0, 2.0);  // rad/s
+  paddle.motion.about = Vec3d(0.35, 0.05, 0.05);
+  paddle.motion.linear_velocity = Vec3d(0.1, 0, -0.05);  // m/s
+  return paddle;
+}
+
+/// Rotation vector (axis * angle, rad) of a rotation of less than half a turn.
+Vec3d rotationVectorOf(const Eigen::Quaterniond& q)
+{
+  const Eigen::AngleAxisd aa(q.normalized());
+  return aa.axis() * aa.angle();
+}
+
+struct BodyState
+{
+  Pose pose;
+  Vec3d v, w, a, alpha;
+};
+
+BodyState stateAt(BodySet& bodies, double t)
+{
+  bodies.poseMoving(t);
+  const Body& b = bodies[0];
+  return {b.pose, b.v_origin, b.omega, b.a_origin, b.alpha};
+}
+}  // namespace
+
+TEST(Bodies, ScriptedMotionStartAndRampAreSmoothAndIntegrated)
+{
+  SceneConfig s = smallScene();
+  BoundaryConfig paddle = scriptedPaddle();
+  paddle.motion.start = 0.05;  // s
+  paddle.motion.ramp = 0.1;    // s
+  s.boundaries.push_back(paddle);
+  validate(s);
+  BodySet bodies(s);
+  ASSERT_TRUE(bodies[0].moving);
+  const Vec3d w_full = paddle.motion.angular_velocity;
+
+  // Still at the initial pose up to the start.
+  for (double t : {0.0, 0.02, 0.05})
+  {
+    const BodyState st = stateAt(bodies, t);
+    EXPECT_EQ(st.pose.translation, paddle.pose.translation) << t;
+    EXPECT_EQ(st.pose.rotation.coeffs(), paddle.pose.rotation.coeffs()) << t;
+    EXPECT_EQ(st.v, Vec3d::Zero()) << t;
+    EXPECT_EQ(st.w, Vec3d::Zero()) << t;
+    EXPECT_EQ(st.a, Vec3d::Zero()) << t;
+    EXPECT_EQ(st.alpha, Vec3d::Zero()) << t;
+  }
+  // Half way through the ramp: half the speed (r = 1/2), the highest angular acceleration (2 w / ramp).
+  BodyState st = stateAt(bodies, 0.1);
+  EXPECT_LT((st.w - 0.5 * w_full).norm(), 1e-12);
+  EXPECT_LT((st.alpha - 2.0 * w_full / 0.1).norm(), 1e-9);
+  // After the ramp: the configured velocities, no angular acceleration.
+  for (double t : {0.16, 0.2, 0.4})
+  {
+    st = stateAt(bodies, t);
+    EXPECT_LT((st.w - w_full).norm(), 1e-15) << t;
+    EXPECT_EQ(st.alpha, Vec3d::Zero()) << t;
+  }
+  // The total angle turned after the ramp is |w| (t - start - ramp / 2).
+  st = stateAt(bodies, 0.4);
+  const double angle = (st.pose.rotation * paddle.pose.rotation.conjugate()).normalized().vec().norm();
+  EXPECT_NEAR(2.0 * std::asin(angle), w_full.norm() * (0.4 - 0.05 - 0.05), 1e-12);
+
+  // Velocities are the derivatives of the pose, accelerations those of the velocities (central
+  // differences), everywhere: before, at and after the start and the end of the ramp.
+  const double h = 1e-6;  // s
+  for (double t = 0.0; t <= 0.3 + 1e-12; t += 0.0125)
+  {
+    const BodyState m = stateAt(bodies, t - h);
+    const BodyState p = stateAt(bodies, t + h);
+    st = stateAt(bodies, t);
+    const Vec3d v_fd = (p.pose.translation - m.pose.translation) / (2 * h);
+    const Vec3d w_fd = rotationVectorOf(p.pose.rotation * m.pose.rotation.conjugate()) / (2 * h);
+    EXPECT_LT((v_fd - st.v).norm(), 1e-8) << "t = " << t;
+    EXPECT_LT((w_fd - st.w).norm(), 1e-8) << "t = " << t;
+    EXPECT_LT(((p.v - m.v) / (2 * h) - st.a).norm(), 1e-6) << "t = " << t;
+    EXPECT_LT(((p.w - m.w) / (2 * h) - st.alpha).norm(), 1e-6) << "t = " << t;
+  }
+
+  // The displacement is the integral of the reported velocity (Simpson over 0..0.3 s).
+  const int n = 3000;
+  const double dt = 0.3 / n;
+  Vec3d integral = Vec3d::Zero();
+  for (int k = 0; k <= n; ++k)
+  {
+    const double weight = (k == 0 || k == n) ? 1.0 : (k % 2 == 1 ? 4.0 : 2.0);
+    integral += weight * stateAt(bodies, k * dt).v;
+  }
+  integral *= dt / 3.0;
+  st = stateAt(bodies, 0.3);
+  EXPECT_LT((integral - (st.pose.translation - paddle.pose.translation)).norm(), 1e-10);
+}
+
+TEST(Bodies, ScriptedMotionDefaultsKeepConstantVelocities)
+{
+  SceneConfig s = smallScene();
+  const BoundaryConfig plain = scriptedPaddle();  // no start, no ramp
+  BoundaryConfig zeros = scriptedPaddle();
+  zeros.name = "zeros";
+  zeros.motion.start = 0.0;
+  zeros.motion.ramp = 0.0;
+  s.boundaries.push_back(plain);
+  s.boundaries.push_back(zeros);
+  BodySet bodies(s);
+  const MotionConfig& m = plain.motion;
+  for (double t : {0.0, 0.013, 0.25, 1.7})
+  {
+    bodies.poseMoving(t);
+    const Body& a = bodies[0];
+    const Body& b = bodies[1];
+    EXPECT_EQ(a.pose.translation, b.pose.translation);
+    EXPECT_EQ(a.pose.rotation.coeffs(), b.pose.rotation.coeffs());
+    EXPECT_EQ(a.v_origin, b.v_origin);
+    EXPECT_EQ(a.a_origin, b.a_origin);
+    // The constant-velocity formulas of Eq. A17 (velocity from the pose, no angular acceleration).
+    const Eigen::Quaterniond rot(Eigen::AngleAxisd(m.angular_velocity.norm() * t, m.angular_velocity.normalized()));
+    const Vec3d o = m.about + rot * (plain.pose.translation - m.about) + m.linear_velocity * t;
+    EXPECT_LT((a.pose.translation - o).norm(), 1e-14) << t;
+    EXPECT_EQ(a.omega, m.angular_velocity);
+    EXPECT_EQ(a.alpha, Vec3d::Zero());
+    EXPECT_LT((a.v_origin - (m.angular_velocity.cross(o - m.about) + m.linear_velocity)).norm(), 1e-14) << t;
+  }
+}
+
+TEST(Simulation, ScriptedBodyWaitsForItsStart)
+{
+  SceneConfig s = smallScene();
+  BoundaryConfig paddle = scriptedPaddle();
+  paddle.motion.start = 0.02;  // s
+  s.boundaries.push_back(paddle);
+  s.time_step.fixed = 0.005;
+  Simulation sim(s);
+  EXPECT_TRUE(sim.body(0).moving);
+  const std::vector<Vec3> initial = sim.boundaryPositions();
+  for (int k = 0; k < 4; ++k) sim.step();  // poses at 0 .. 0.015 s
+  EXPECT_TRUE(sim.boundaryPositions() == initial);
+  EXPECT_EQ(sim.body(0).linear_velocity, Vec3d::Zero());
+  for (int k = 0; k < 3; ++k) sim.step();  // poses at 0.02 .. 0.03 s: moving
+  EXPECT_FALSE(sim.boundaryPositions() == initial);
+  EXPECT_EQ(sim.body(0).angular_velocity, paddle.motion.angular_velocity);
+}
+
+TEST(SceneValidation, MotionStartAndRampNameTheirKey)
+{
+  SceneConfig s = smallScene();
+  s.boundaries.push_back(scriptedPaddle());
+  s.boundaries[0].motion.start = -0.1;
+  EXPECT_EQ(errorKey(s), "boundaries[0].motion.start");
+  s.boundaries[0].motion.start = 0.0;
+  s.boundaries[0].motion.ramp = std::nan("");
+  EXPECT_EQ(errorKey(s), "boundaries[0].motion.ramp");
+  s.boundaries[0].motion.ramp = -1.0;
+  EXPECT_EQ(errorKey(s), "boundaries[0].motion.ramp");
 }
 
 TEST(Simulation, ExternalPosesGiveVelocities)

@@ -52,7 +52,7 @@ boundaries:
   - name: drum
     cylinder: {center: [0, 0, 0], axis: [0, 1, 0], radius: 0.3, length: 0.2}
     inside: true
-    motion: {angular_velocity: [0, 0.73, 0], about: [0, 0, 0.1], linear_velocity: [0.1, 0, 0]}
+    motion: {angular_velocity: [0, 0.73, 0], about: [0, 0, 0.1], linear_velocity: [0.1, 0, 0], start: 0.5, ramp: 0.25}
     pose: {xyz: [0.1, 0.2, 0.3], rpy: [0, 0, 1.5707963267948966]}
     sample_spacing: 0.01
     external: true
@@ -170,6 +170,8 @@ TEST(SceneLoader, FullExampleParses)
   EXPECT_TRUE(drum.motion.angular_velocity.isApprox(Vec3d(0, 0.73, 0)));
   EXPECT_TRUE(drum.motion.about.isApprox(Vec3d(0, 0, 0.1)));
   EXPECT_TRUE(drum.motion.linear_velocity.isApprox(Vec3d(0.1, 0, 0)));
+  EXPECT_DOUBLE_EQ(drum.motion.start, 0.5);
+  EXPECT_DOUBLE_EQ(drum.motion.ramp, 0.25);
   EXPECT_TRUE(drum.pose.translation.isApprox(Vec3d(0.1, 0.2, 0.3)));
   EXPECT_TRUE(drum.pose.apply(Vec3d(1, 0, 0)).isApprox(Vec3d(0.1, 1.2, 0.3), 1e-12));  // yaw 90 degrees
   EXPECT_DOUBLE_EQ(drum.sample_spacing, 0.01);
@@ -250,6 +252,26 @@ TEST(SceneLoader, UnknownNestedKey)
   expectError(kBase + "solver: {density_eror: 0.001}\n", "solver.density_eror", "unknown key");
   expectError(kBase + kBoundaries + "    motion: {angular_velocty: [0, 0, 1]}\n",
               "boundaries[1].motion.angular_velocty", "unknown key");
+}
+
+TEST(SceneLoader, MotionStartAndRamp)
+{
+  const SceneConfig s = parseScene(
+      kBase + kBoundaries + "    motion: {angular_velocity: [0, 0, 1], start: 0.2, ramp: 0.1}\n", "scene.yaml");
+  EXPECT_DOUBLE_EQ(s.boundaries[1].motion.start, 0.2);
+  EXPECT_DOUBLE_EQ(s.boundaries[1].motion.ramp, 0.1);
+  EXPECT_DOUBLE_EQ(s.boundaries[0].motion.start, 0.0);  // defaults
+  EXPECT_DOUBLE_EQ(s.boundaries[0].motion.ramp, 0.0);
+  expectError(kBase + kBoundaries + "    motion: {angular_velocity: [0, 0, 1], start: -0.2}\n",
+              "boundaries[1].motion.start", "must be >= 0");
+  expectError(kBase + kBoundaries + "    motion: {angular_velocity: [0, 0, 1], ramp: -0.1}\n",
+              "boundaries[1].motion.ramp", "must be >= 0");
+  expectError(kBase + kBoundaries + "    motion: {angular_velocity: [0, 0, 1], ramp: .nan}\n",
+              "boundaries[1].motion.ramp", "");
+  expectError(kBase + kBoundaries + "    motion: {angular_velocity: [0, 0, 1], rampe: 0.1}\n",
+              "boundaries[1].motion.rampe", "unknown key (did you mean 'ramp'?)");
+  expectError(kBase + kBoundaries + "    motion: {angular_velocity: [0, 0, 1], strat: 0.1}\n",
+              "boundaries[1].motion.strat", "unknown key (did you mean 'start'?)");
 }
 
 TEST(SceneLoader, DuplicateKey)

@@ -20,6 +20,42 @@ Vec3d rotationVector(const Eigen::Quaterniond& q)
   if (angle > M_PI) angle -= 2.0 * M_PI;
   return aa.axis() * angle;
 }
+
+/// Ramp of scripted motion with a start time or a ramp (Eq. A17): at `time` (s), the factor r of
+/// the configured velocities (dimensionless), its rate dr (1/s), and its integral since the start,
+/// s = int_start^time r dt' (s), the time the body would have needed at full speed for the same
+/// displacement. With tau = time - start and u = tau / ramp:
+///   tau <= 0:          r = 0, dr = 0, s = 0
+///   0 < tau < ramp:    r = u - sin(2 pi u) / (2 pi),  dr = (1 - cos(2 pi u)) / ramp,
+///                      s = ramp (u^2 / 2 - (1 - cos(2 pi u)) / (4 pi^2))
+///   tau >= ramp:       r = 1, dr = 0, s = tau - ramp / 2
+/// r is C2 (dr and its rate vanish at both ends): velocities and accelerations are continuous.
+struct MotionRamp
+{
+  double r = 0.0;   // dimensionless
+  double dr = 0.0;  // 1/s
+  double s = 0.0;   // s
+};
+
+MotionRamp motionRamp(const MotionConfig& m, double time)
+{
+  MotionRamp out;
+  const double tau = time - m.start;  // s since the start
+  if (!(tau > 0.0)) return out;
+  if (tau >= m.ramp)
+  {
+    out.r = 1.0;
+    out.s = tau - 0.5 * m.ramp;
+    return out;
+  }
+  const double u = tau / m.ramp;  // in (0, 1): ramp > 0 here
+  const double half_sin = std::sin(M_PI * u);
+  const double one_minus_cos = 2.0 * half_sin * half_sin;  // 1 - cos(2 pi u), without cancellation
+  out.r = u - std::sin(2.0 * M_PI * u) / (2.0 * M_PI);
+  out.dr = one_minus_cos / m.ramp;
+  out.s = m.ramp * (0.5 * u * u - one_minus_cos / (4.0 * M_PI * M_PI));
+  return out;
+}
 }  // namespace
 
 BodySet::BodySet(const SceneConfig& scene)
@@ -73,7 +109,8 @@ void BodySet::setPendingPose(std::size_t index, const Pose& pose, bool jump)
   body.pose_jump = jump;
 }
 
-/// Eq. A17, scripted: rotation about `about` at constant angular velocity, then translation.
+/// Eq. A17, scripted: rotation about `about` at constant angular velocity, then translation, after
+/// `time` seconds at full speed (with a start or a ramp, `time` is the ramp's integral s).
 Pose BodySet::scriptedPose(const Body& body, double time) const
 {
   const MotionConfig& m = body.config.motion;
@@ -120,7 +157,7 @@ void BodySet::pose(Body& body, double time, bool force_write)
       force_write = true;
     }
   }
-  else if (!body.config.motion.isStatic())
+  else if (!body.config.motion.isStatic() && body.config.motion.start == 0.0 && body.config.motion.ramp == 0.0)
   {
     // Eq. A17, scripted: constant velocities; the origin's acceleration is centripetal.
     const MotionConfig& m = body.config.motion;
@@ -129,6 +166,22 @@ void BodySet::pose(Body& body, double time, bool force_write)
     body.v_origin = m.angular_velocity.cross(body.pose.translation - m.about) + m.linear_velocity;
     body.alpha.setZero();
     body.a_origin = m.angular_velocity.cross(m.angular_velocity.cross(body.pose.translation - m.about));
+    force_write = true;
+  }
+  else if (!body.config.motion.isStatic())
+  {
+    // Eq. A17, scripted with a start time or a ramp: velocities r times the configured ones, the
+    // pose their exact integral (the motion of full speed over the time s).
+    const MotionConfig& m = body.config.motion;
+    const MotionRamp ramp = motionRamp(m, time);
+    body.pose = ramp.s > 0.0 ? scriptedPose(body, ramp.s) : body.initial_pose;  // still before the start
+    // Arm from the axis point to the origin, rotated: o - about without the translation u s.
+    const Vec3d arm = body.pose.translation - m.about - m.linear_velocity * ramp.s;  // m
+    const Vec3d w = m.angular_velocity * ramp.r;                                     // rad/s
+    body.omega = w;
+    body.v_origin = w.cross(arm) + m.linear_velocity * ramp.r;
+    body.alpha = m.angular_velocity * ramp.dr;
+    body.a_origin = body.alpha.cross(arm) + w.cross(w.cross(arm)) + m.linear_velocity * ramp.dr;
     force_write = true;
   }
   if (!force_write) return;

@@ -192,6 +192,8 @@ void validate(const SceneConfig& s)
     requireFinite(b.motion.angular_velocity, key + ".motion.angular_velocity");
     requireFinite(b.motion.about, key + ".motion.about");
     requireFinite(b.motion.linear_velocity, key + ".motion.linear_velocity");
+    requireNonNegative(b.motion.start, key + ".motion.start");
+    requireNonNegative(b.motion.ramp, key + ".motion.ramp");
     requireNonNegative(b.sample_spacing, key + ".sample_spacing");
     if (b.sample_spacing > s.spacing)
       throw ConfigError(key + ".sample_spacing", "must not exceed the scene spacing " + str(s.spacing));

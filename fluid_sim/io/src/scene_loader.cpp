@@ -262,6 +262,8 @@ MotionConfig readMotion(const Entry& e)
   r.read("angular_velocity", m.angular_velocity);
   r.read("about", m.about);
   r.read("linear_velocity", m.linear_velocity);
+  r.read("start", m.start);
+  r.read("ramp", m.ramp);
   r.finish();
   return m;
 }

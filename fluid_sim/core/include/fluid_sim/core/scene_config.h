@@ -75,12 +75,17 @@ enum class ShapeType
   Mesh
 };
 
-/// Scripted rigid motion: x(t) = about + R(angular_velocity * t) (x(0) - about) + linear_velocity * t.
+/// Scripted rigid motion: x(t) = about + R(angular_velocity * S(t)) (x(0) - about) + linear_velocity * S(t),
+/// with S(t) = t by default. With a start time or a ramp, the velocities are r(t) times the
+/// configured ones, r = 0 before `start`, rising smoothly to 1 over `ramp` seconds, and S(t) is the
+/// integral of r (Eq. A17 of docs/method.md).
 struct MotionConfig
 {
   Vec3d angular_velocity = Vec3d::Zero();  // rad/s, world frame          key: motion.angular_velocity
   Vec3d about = Vec3d::Zero();             // m, a point on the axis       key: motion.about
   Vec3d linear_velocity = Vec3d::Zero();   // m/s                          key: motion.linear_velocity
+  double start = 0.0;                      // s, still at the initial pose before it   key: motion.start
+  double ramp = 0.0;                       // s, velocities rise from 0 over it        key: motion.ramp
   bool isStatic() const
   {
     return angular_velocity.isZero(0) && linear_velocity.isZero(0);
