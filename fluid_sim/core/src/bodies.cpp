@@ -25,8 +25,8 @@ Vec3d rotationVector(const Eigen::Quaterniond& q)
 /// the configured velocities (dimensionless), its rate dr (1/s), and its integral since the start,
 /// s = int_start^time r dt' (s), the time the body would have needed at full speed for the same
 /// displacement. With tau = time - start and u = tau / ramp:
-///   tau <= 0:          r = 0, dr = 0, s = 0
-///   0 < tau < ramp:    r = u - sin(2 pi u) / (2 pi),  dr = (1 - cos(2 pi u)) / ramp,
+///   tau < 0:           r = 0, dr = 0, s = 0
+///   0 <= tau < ramp:   r = u - sin(2 pi u) / (2 pi),  dr = (1 - cos(2 pi u)) / ramp,
 ///                      s = ramp (u^2 / 2 - (1 - cos(2 pi u)) / (4 pi^2))
 ///   tau >= ramp:       r = 1, dr = 0, s = tau - ramp / 2
 /// r is C2 (dr and its rate vanish at both ends): velocities and accelerations are continuous.
@@ -41,8 +41,8 @@ MotionRamp motionRamp(const MotionConfig& m, double time)
 {
   MotionRamp out;
   const double tau = time - m.start;  // s since the start
-  if (!(tau > 0.0)) return out;
-  if (tau >= m.ramp)
+  if (!(tau >= 0.0)) return out;
+  if (tau >= m.ramp)  // without a ramp: full speed from the start (r = 1, s = time - start)
   {
     out.r = 1.0;
     out.s = tau - 0.5 * m.ramp;
@@ -129,6 +129,17 @@ void BodySet::pose(Body& body, double time, bool force_write)
 {
   if (body.config.externally_posed)
   {
+    // Eq. A17, external. A step without a new pose holds the body where it is: its velocities
+    // are derived every step, so a body the caller stops has zero velocity at once (not the
+    // velocity of its last change of pose).
+    const bool at_rest =
+        body.v_origin.isZero(0) && body.omega.isZero(0) && body.a_origin.isZero(0) && body.alpha.isZero(0);
+    if (!body.pose_pending && body.has_previous_pose && !at_rest)
+    {
+      body.pending_pose = body.pose;
+      body.pose_pending = true;
+      body.pose_jump = false;
+    }
     if (body.pose_pending)
     {
       const double dt = time - body.last_pose_time;  // s since the previous pose
@@ -141,8 +152,8 @@ void BodySet::pose(Body& body, double time, bool force_write)
       }
       else if (body.has_previous_pose && dt > 0.0)
       {
-        // Eq. A17, external: velocities follow the poses by backward differences over the last
-        // interval, accelerations by differences of those.
+        // Velocities follow the poses by backward differences over the last interval,
+        // accelerations by differences of those.
         const Vec3d v_new = (body.pending_pose.translation - body.pose.translation) / dt;
         const Vec3d w_new = rotationVector(body.pending_pose.rotation * body.pose.rotation.conjugate()) / dt;
         body.a_origin = (v_new - body.v_origin) / dt;
@@ -150,31 +161,23 @@ void BodySet::pose(Body& body, double time, bool force_write)
         body.v_origin = v_new;
         body.omega = w_new;
       }
+      const bool unchanged = at_rest && body.v_origin.isZero(0) && body.omega.isZero(0) && body.a_origin.isZero(0) &&
+                             body.alpha.isZero(0) && body.pending_pose.translation == body.pose.translation &&
+                             body.pending_pose.rotation.coeffs() == body.pose.rotation.coeffs();
       body.pose = body.pending_pose;
       body.last_pose_time = time;
       body.has_previous_pose = true;
       body.pose_pending = false;
-      force_write = true;
+      if (!unchanged) force_write = true;  // a body at rest given its own pose again: nothing to rewrite
     }
-  }
-  else if (!body.config.motion.isStatic() && body.config.motion.start == 0.0 && body.config.motion.ramp == 0.0)
-  {
-    // Eq. A17, scripted: constant velocities; the origin's acceleration is centripetal.
-    const MotionConfig& m = body.config.motion;
-    body.pose = scriptedPose(body, time);
-    body.omega = m.angular_velocity;
-    body.v_origin = m.angular_velocity.cross(body.pose.translation - m.about) + m.linear_velocity;
-    body.alpha.setZero();
-    body.a_origin = m.angular_velocity.cross(m.angular_velocity.cross(body.pose.translation - m.about));
-    force_write = true;
   }
   else if (!body.config.motion.isStatic())
   {
-    // Eq. A17, scripted with a start time or a ramp: velocities r times the configured ones, the
-    // pose their exact integral (the motion of full speed over the time s).
+    // Eq. A17, scripted: velocities r times the configured ones (r = 1 without a start or a
+    // ramp), the pose their exact integral (the motion at full speed over the time s).
     const MotionConfig& m = body.config.motion;
     const MotionRamp ramp = motionRamp(m, time);
-    body.pose = ramp.s > 0.0 ? scriptedPose(body, ramp.s) : body.initial_pose;  // still before the start
+    body.pose = time >= m.start ? scriptedPose(body, ramp.s) : body.initial_pose;  // still before the start
     // Arm from the axis point to the origin, rotated: o - about without the translation u s.
     const Vec3d arm = body.pose.translation - m.about - m.linear_velocity * ramp.s;  // m
     const Vec3d w = m.angular_velocity * ramp.r;                                     // rad/s

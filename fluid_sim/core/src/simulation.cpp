@@ -247,6 +247,10 @@ const std::vector<Vec3>& Simulation::boundaryPositions() const
 {
   return impl_->bodies.x;
 }
+const std::vector<Vec3>& Simulation::boundaryVelocities() const
+{
+  return impl_->bodies.v;
+}
 const std::vector<Real>& Simulation::boundaryPressures() const
 {
   return impl_->solver->boundaryPressures();

@@ -12,14 +12,6 @@ namespace fluid_sim
 {
 namespace ros_bridge
 {
-namespace
-{
-bool samePose(const Pose& a, const Pose& b)
-{
-  return a.translation == b.translation && a.rotation.coeffs() == b.rotation.coeffs();
-}
-}  // namespace
-
 LinkPoses::LinkPoses(const NodeOptions& opt) : opt_(opt) {}
 
 void LinkPoses::listen(ros::NodeHandle& nh)
@@ -93,7 +85,6 @@ void LinkPoses::attach(const Simulation& sim, const std::vector<std::string>& li
     lb.link = link;
     lb.index = sim.bodyIndex(link);
     lb.last_pose = poses.at(link);
-    lb.has_pose = true;
     links_.push_back(lb);
   }
 }
@@ -126,12 +117,13 @@ void LinkPoses::poseBodies(Simulation& sim, const ros::Time& stamp, bool jump)
     if (!p)
     {
       ROS_WARN_THROTTLE(5.0, "tf: no pose of '%s' (%s); it stays where it was", lb.link.c_str(), why.c_str());
-      continue;
+      p = lb.last_pose;
     }
-    if (lb.has_pose && samePose(*p, lb.last_pose) && !jump) continue;  // static: no rewrite
+    // Every link's pose every step, changed or not: the core derives velocities from consecutive
+    // poses, so a link that stops has zero velocity at once (a body at rest given the same pose
+    // again costs nothing there).
     sim.setBodyPose(lb.index, *p, jump);
     lb.last_pose = *p;
-    lb.has_pose = true;
   }
 }
 

@@ -80,9 +80,9 @@ public:
 
   /// Poses an externally driven body (`external: true`) for the next step: `pose` is its pose at
   /// time(), the start of that step. Its velocity follows from the change of pose since the
-  /// previous one (zero for the first). `jump` = true places it without deriving a velocity
-  /// (velocity zero): for a pose after a pause or a reset, which is not a motion over one step.
-  /// `index` from bodyIndex().
+  /// previous one (zero for the first); a step without a new pose holds it still (zero velocity). `jump` = true places
+  /// it without deriving a velocity (velocity zero): for a pose after a pause or a reset, which is not a motion over
+  /// one step. `index` from bodyIndex().
   void setBodyPose(std::size_t index, const Pose& pose, bool jump = false);
   /// Index of the body with this name; throws ConfigError if there is none.
   std::size_t bodyIndex(const std::string& name) const;
@@ -112,9 +112,10 @@ public:
 
   std::size_t numBodies() const;
   BodyInfo body(std::size_t index) const;
-  const std::vector<Vec3>& boundaryPositions() const;  // m, world
-  const std::vector<Real>& boundaryPressures() const;  // Pa, last density-solve values (0 for mirroring)
-  const std::vector<Real>& boundaryVolumes() const;    // m^3
+  const std::vector<Vec3>& boundaryPositions() const;   // m, world
+  const std::vector<Vec3>& boundaryVelocities() const;  // m/s, world, at time()
+  const std::vector<Real>& boundaryPressures() const;   // Pa, last density-solve values (0 for mirroring)
+  const std::vector<Real>& boundaryVolumes() const;     // m^3
 
   std::size_t initialFluidParticles() const;  // sampled fluid particles kept at start
   std::size_t removedAtStart() const;         // lattice points dropped inside solids / outside containers

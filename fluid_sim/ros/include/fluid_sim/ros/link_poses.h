@@ -65,7 +65,6 @@ private:
     std::string link;
     std::size_t index = 0;  // in the simulation
     Pose last_pose;         // link -> fixed frame (m), last given to the simulation
-    bool has_pose = false;
   };
 
   const NodeOptions& opt_;
