@@ -5,7 +5,8 @@ leaves the physics bit-identical (a restructuring, a refactor, a build change).
 For each scene (default: config/*.yaml), each boundary method and each thread count it runs
 `fluid_sim_run` and hashes
   - every PLY frame (frames/NNNNNN.ply, byte for byte),
-  - stats.csv without its timing columns (wall_ms, ms_neighbors, ms_divergence, ms_density),
+  - stats.csv without its timing columns (wall_ms, ms_neighbors, ms_divergence, ms_density) and
+    the diagnostic columns added later (STATS_DIAGNOSTIC),
   - summary.json without its timings (wall_time_s, step_time_s, ms_per_step, real_time_factor).
 
   scripts/result_hashes.py record --runner build/fluid_sim_run --out before.json
@@ -32,6 +33,11 @@ import tempfile
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 METHODS = ["mirroring", "sph", "mls"]
 STATS_TIMING = {"wall_ms", "ms_neighbors", "ms_divergence", "ms_density"}
+# Diagnostic columns added after the first records (derived from the state, not part of it):
+# left out so that records before and after their addition compare.
+STATS_DIAGNOSTIC = {"coefficient_min", "coefficient_max", "coefficient_abs_sum_max", "coefficient_abs_sum_mean",
+                    "feedback_ratio_min", "feedback_ratio_max", "density_residual_first", "density_residual_peak",
+                    "density_residual_last"}
 SUMMARY_TIMING = {"wall_time_s", "step_time_s", "ms_per_step", "real_time_factor"}
 
 
@@ -42,7 +48,7 @@ def sha(data):
 def stats_hash(path):
     with open(path, newline="") as f:
         rows = list(csv.reader(f))
-    keep = [k for k, name in enumerate(rows[0]) if name not in STATS_TIMING]
+    keep = [k for k, name in enumerate(rows[0]) if name not in STATS_TIMING | STATS_DIAGNOSTIC]
     out = io.StringIO()
     w = csv.writer(out, lineterminator="\n")
     for row in rows:

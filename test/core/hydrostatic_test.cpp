@@ -153,9 +153,10 @@ TEST_P(Buoyancy, SubmergedCubeFeelsArchimedesForce)
   Simulation sim(scene);
   EXPECT_EQ(sim.removedAtStart(), 343u);  // the 7^3 lattice points inside the cube
   // Settle 1.2 s: until about 1.2 s the force still drifts by a few percent as the water
-  // around the cube rearranges (mls: 1.05 in 0.6-1.0 s, then a plateau of 1.034-1.038 from 1.4 s
-  // to 3 s; sph: 1.00, then 0.960-0.970), and where in that drift a 0.4 s window falls depended
-  // on the CPU's floating-point path.
+  // around the cube rearranges (with the earlier 3-spacing MLS fit: 1.05 in 0.6-1.0 s, then a
+  // plateau of 1.034-1.038 from 1.4 s to 3 s; sph: 1.00, then 0.960-0.970), and where in that
+  // drift a 0.4 s window falls depended on the CPU's floating-point path. With the 2-spacing fit
+  // MLS reads 0.998 over 1.8-2.0 s (runner, docs/method_notes.md).
   const Averages avg = settleAndAverage(sim, 1.2, 0.4, width * width - side * side);
   const double archimedes = 1000.0 * kG * side * side * side;
   std::printf("%s: cube force / (rho0 g V) = %.4f\n", toString(GetParam()), avg.body_force.z() / archimedes);
@@ -220,35 +221,42 @@ TEST_P(WallWork, BoundaryPressureTermWork)
     work += r.boundary_pressure_work;
     ke = r.kinetic_energy;
   }
-  if (GetParam() == BoundaryPressureMethod::Mirroring)
+  if (GetParam() == BoundaryPressureMethod::MirroringEq2)
   {
-    EXPECT_GT(work, 0.1 * mgh) << "mirroring: W " << work << " J, m g H " << mgh << " J";
-    EXPECT_GT(work, 3.0 * ke) << "mirroring: W " << work << " J, kinetic energy " << ke << " J";
+    EXPECT_GT(work, 0.1 * mgh) << "mirroring_eq2: W " << work << " J, m g H " << mgh << " J";
+    EXPECT_GT(work, 3.0 * ke) << "mirroring_eq2: W " << work << " J, kinetic energy " << ke << " J";
   }
   else
     EXPECT_LT(std::abs(work), 0.005 * mgh) << toString(GetParam()) << ": W " << work << " J, m g H " << mgh << " J";
 }
 
-const auto kAll = ::testing::Values(BoundaryPressureMethod::Mirroring, BoundaryPressureMethod::SphExtrapolation,
-                                    BoundaryPressureMethod::Mls);
-const auto kExtrapolated = ::testing::Values(BoundaryPressureMethod::SphExtrapolation, BoundaryPressureMethod::Mls);
-INSTANTIATE_TEST_SUITE_P(Extrapolated, Hydrostatics, kExtrapolated, methodName);
-INSTANTIATE_TEST_SUITE_P(Extrapolated, PressureProfile, kExtrapolated, methodName);
-// Known failures, kept runnable (--gtest_also_run_disabled_tests): with mirroring (Eq. 2) the
-// water in the box does not come to rest (rms speed grows to 0.37 m/s in 3 s where sph and mls
-// decay to 0.004 m/s), its time-averaged pressure is ~15 % above rho0 g d and the cube's
-// buoyancy +22 % at 7 spacings a side. The cause, the mirrored p_b term's work, is what
-// WallWork.BoundaryPressureTermWork measures (docs/method_notes.md).
-// The floor force equals the weight only when the water's momentum is steady: with mirroring the
-// 0.4 m column sloshes at up to 6 m/s in the averaging window, and the ratio was 1.002 or 1.023
-// depending on nothing but the particle order of the neighbour grid.
-INSTANTIATE_TEST_SUITE_P(DISABLED_Mirroring, Hydrostatics, ::testing::Values(BoundaryPressureMethod::Mirroring),
+const auto kAll = ::testing::Values(BoundaryPressureMethod::Mirroring, BoundaryPressureMethod::MirroringEq2,
+                                    BoundaryPressureMethod::SphExtrapolation, BoundaryPressureMethod::Mls);
+// The methods that bring water to rest: single-term mirroring and the two extrapolations.
+const auto kResting = ::testing::Values(BoundaryPressureMethod::Mirroring, BoundaryPressureMethod::SphExtrapolation,
+                                        BoundaryPressureMethod::Mls);
+INSTANTIATE_TEST_SUITE_P(Resting, Hydrostatics, kResting, methodName);
+INSTANTIATE_TEST_SUITE_P(Resting, PressureProfile, kResting, methodName);
+INSTANTIATE_TEST_SUITE_P(Extrapolated, Buoyancy,
+                         ::testing::Values(BoundaryPressureMethod::SphExtrapolation, BoundaryPressureMethod::Mls),
                          methodName);
-INSTANTIATE_TEST_SUITE_P(DISABLED_Mirroring, PressureProfile, ::testing::Values(BoundaryPressureMethod::Mirroring),
-                         methodName);
-INSTANTIATE_TEST_SUITE_P(Extrapolated, Buoyancy, kExtrapolated, methodName);
+// Known failure: single-term mirroring's cube feels 0.926 rho0 g V. It follows the boundary
+// volume factor gamma of Eq. A3 (0.85: 1.035, 1 (Akinci's): 1.071), which the extrapolations
+// barely feel (docs/method_notes.md); not fixed yet.
 INSTANTIATE_TEST_SUITE_P(DISABLED_Mirroring, Buoyancy, ::testing::Values(BoundaryPressureMethod::Mirroring),
                          methodName);
-INSTANTIATE_TEST_SUITE_P(Extrapolated, Rest, kExtrapolated, methodName);
+INSTANTIATE_TEST_SUITE_P(Resting, Rest, kResting, methodName);
 INSTANTIATE_TEST_SUITE_P(AllMethods, WallWork, kAll, methodName);
-INSTANTIATE_TEST_SUITE_P(DISABLED_Mirroring, Rest, ::testing::Values(BoundaryPressureMethod::Mirroring), methodName);
+// Known failures, kept runnable (--gtest_also_run_disabled_tests): with the paper's mirroring
+// (Eq. 2, mirroring_eq2) the water in the box does not come to rest (rms speed grows to 0.37 m/s
+// in 3 s where the others decay to 0.004-0.006 m/s), its time-averaged pressure is ~15 % above
+// rho0 g d and the cube's buoyancy +22 % at 7 spacings a side. The cause, the mirrored p_b term's
+// work, is what WallWork.BoundaryPressureTermWork measures (docs/method_notes.md).
+// The floor force equals the weight only when the water's momentum is steady: with Eq. 2 the
+// 0.4 m column sloshes at up to 6 m/s in the averaging window, and the ratio was 1.002 or 1.023
+// depending on nothing but the particle order of the neighbour grid.
+const auto kEq2 = ::testing::Values(BoundaryPressureMethod::MirroringEq2);
+INSTANTIATE_TEST_SUITE_P(DISABLED_MirroringEq2, Hydrostatics, kEq2, methodName);
+INSTANTIATE_TEST_SUITE_P(DISABLED_MirroringEq2, PressureProfile, kEq2, methodName);
+INSTANTIATE_TEST_SUITE_P(DISABLED_MirroringEq2, Buoyancy, kEq2, methodName);
+INSTANTIATE_TEST_SUITE_P(DISABLED_MirroringEq2, Rest, kEq2, methodName);

@@ -94,8 +94,10 @@ TEST(StatsCsvWriter, HeaderAndRows)
     r.fluid_particles = 1234;
     r.kinetic_energy = 0.25;
     r.boundary_pressure_work = -0.125;
+    r.density_residual_max = {0.5f, 0.75f, 0.125f};
     csv.write(1, r, 2.5);
     r.time = 0.002;
+    r.density_residual_max.clear();
     csv.write(2, r, 2.0);
     csv.flush();
   }
@@ -115,6 +117,9 @@ TEST(StatsCsvWriter, HeaderAndRows)
   // Columns added later go at the end, so scripts that read the first ones keep working.
   EXPECT_NE(header.find(",kinetic_energy,boundary_pressure_work"), std::string::npos) << header;
   EXPECT_NE(row1.find(",0.25,-0.125"), std::string::npos) << row1;
+  EXPECT_NE(header.find(",density_residual_first,density_residual_peak,density_residual_last"), std::string::npos);
+  EXPECT_EQ(row1.substr(row1.size() - 15), ",0.5,0.75,0.125") << row1;  // first, peak, last
+  EXPECT_EQ(row2.substr(row2.size() - 2), ",,") << row2;                // no density solve
   const auto columns = [](const std::string& line) { return std::count(line.begin(), line.end(), ',') + 1; };
   EXPECT_EQ(columns(row1), columns(header));
 }

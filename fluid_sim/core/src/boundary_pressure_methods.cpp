@@ -38,7 +38,12 @@ void ExtrapolatedBoundaryPressure::buildLists()
   for (std::size_t b = 0; b < nb; ++b)
     if (is_active_[b].load(std::memory_order_relaxed)) active_.push_back(Index(b));
   queries_.resize(active_.size());
-  for (std::size_t k = 0; k < active_.size(); ++k) queries_[k] = xb_[active_[k]];
+  row_of_.resize(nb);  // read only for active particles: no reset needed
+  for (std::size_t k = 0; k < active_.size(); ++k)
+  {
+    queries_[k] = xb_[active_[k]];
+    row_of_[active_[k]] = Index(k);
+  }
   const CubicKernel fit_kernel(fit_radius_);
   auto weight = [&fit_kernel](Real d2) -> Real { return fit_kernel.W(std::sqrt(d2)); };
   static const std::vector<Index> kIdentity;  // the sorted fluid is in grid order
@@ -55,10 +60,12 @@ void ExtrapolatedBoundaryPressure::extrapolate(const std::vector<Real>& p, bool 
   const Real rho0 = in_.constants.rho0;
   const Vec3 gravity = in_.constants.gravity;
   const std::vector<Vec3>& ab = in_.bodies.a;
-  // Eq. A11 (solver.limit_boundary_pressure): p_b within [min p_f, max p_f] +- rho0 |g - a_b| 5 s
-  // (Pa). The hydrostatic difference between the wall and its nearest water is about 1 s; the
-  // rest is margin for the pressure noise of a converged solve (docs/method_notes.md).
-  const Real reach = Real(5.0 * in_.scene.spacing) * rho0;  // kg/m^2
+  // Eq. A11 (solver.limit_boundary_pressure): p_b within [min p_f, max p_f] +- rho0 |g - a_b| r_fit
+  // (Pa). Every neighbour f of the fit lies within r_fit of b, so in water whose pressure is
+  // hydrostatic in the body's frame, p_b differs from each p_f by at most rho0 |g - a_b| r_fit:
+  // the limit never binds there, and it stops a fit over few one-sided neighbours (a splash, an
+  // impact) from predicting more than that.
+  const Real reach = fit_radius_ * rho0;  // kg/m^2
   parallelRanges(active_.size(), 512, [&](const tbb::blocked_range<std::size_t>& r) {
     for (std::size_t q = r.begin(); q != r.end(); ++q)
     {
@@ -88,6 +95,59 @@ void ExtrapolatedBoundaryPressure::extrapolate(const std::vector<Real>& p, bool 
   });
 }
 
+namespace
+{
+struct CoefficientFigures
+{
+  double c_min = 0, c_max = 0, abs_sum_max = 0, abs_sum = 0;
+  bool any = false;
+};
+}  // namespace
+
+void ExtrapolatedBoundaryPressure::coefficientFigures()
+{
+  const CoefficientFigures f = parallelDeterministicSum(
+      active_.size(), CoefficientFigures{},
+      [&](const tbb::blocked_range<std::size_t>& r, CoefficientFigures& acc) {
+        for (std::size_t q = r.begin(); q != r.end(); ++q)
+        {
+          double abs_sum = 0;
+          for (Index k = fit_lists_.offset[q]; k < fit_lists_.offset[q + 1]; ++k)
+          {
+            const double c = coefficients_[k];
+            acc.c_min = acc.any ? std::min(acc.c_min, c) : c;
+            acc.c_max = acc.any ? std::max(acc.c_max, c) : c;
+            acc.any = true;
+            abs_sum += std::abs(c);
+          }
+          acc.abs_sum_max = std::max(acc.abs_sum_max, abs_sum);
+          acc.abs_sum += abs_sum;
+        }
+      },
+      [](CoefficientFigures& left, const CoefficientFigures& right) {
+        if (right.any)
+        {
+          left.c_min = left.any ? std::min(left.c_min, right.c_min) : right.c_min;
+          left.c_max = left.any ? std::max(left.c_max, right.c_max) : right.c_max;
+          left.any = true;
+        }
+        left.abs_sum_max = std::max(left.abs_sum_max, right.abs_sum_max);
+        left.abs_sum += right.abs_sum;
+      });
+  c_min_ = f.c_min;
+  c_max_ = f.c_max;
+  abs_sum_max_ = f.abs_sum_max;
+  abs_sum_mean_ = active_.empty() ? 0.0 : f.abs_sum / double(active_.size());
+}
+
+void ExtrapolatedBoundaryPressure::reportCoefficients(StepReport& rep) const
+{
+  rep.coefficient_min = c_min_;
+  rep.coefficient_max = c_max_;
+  rep.coefficient_abs_sum_max = abs_sum_max_;
+  rep.coefficient_abs_sum_mean = abs_sum_mean_;
+}
+
 SphBoundaryPressure::SphBoundaryPressure(const BoundaryPressureInputs& in)
     : ExtrapolatedBoundaryPressure(in, in.constants.support)
 {
@@ -113,6 +173,7 @@ void SphBoundaryPressure::prepare()
                       coefficients_.data() + begin, constant_[b]);
     }
   });
+  coefficientFigures();
 }
 
 MlsBoundaryPressure::MlsBoundaryPressure(const BoundaryPressureInputs& in)
@@ -145,6 +206,7 @@ void MlsBoundaryPressure::prepare()
       fit_kind_[q] = std::uint8_t(fit);
     }
   });
+  coefficientFigures();
   fallbacks_ = reduced_ = 0;
   for (std::uint8_t k : fit_kind_)
   {

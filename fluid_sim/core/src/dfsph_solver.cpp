@@ -42,6 +42,7 @@ public:
   {
     densityDiagonalAndRate();
     method_.prepare();
+    if constexpr (Method::kExtrapolated) extrapolationFeedback();
   }
 
   void divergenceSolve(double dt, StepReport& rep, BodyWrenches& wrenches) override
@@ -66,6 +67,7 @@ public:
     const Real inv_dt = Real(1.0 / dt), inv_dt2 = Real(1.0 / (dt * dt));
     parallelFor(n, [&](std::size_t i) { source_[i] = (rho0_ - fluid_.rho[i]) * inv_dt2 - density_rate_[i] * inv_dt; });
     startingPressure(fluid_.p_density);
+    density_residual_max_.clear();
     rep.density_iterations = solve(fluid_.p_density, dt, true, scene_.solver.density_error,
                                    scene_.solver.min_iterations, rep.density_error, rep.density_converged);
     accumulateWrenches(fluid_.p_density, wrenches);
@@ -96,12 +98,15 @@ public:
 
   Real wallPressure(std::size_t i, Index b) const override
   {
-    return method_.wallPressure(b, fluid_.p_density[i]);
+    return method_.contactPressure(b, fluid_.p_density[i]);
   }
 
   void report(StepReport& rep) const override
   {
     method_.report(rep, bodies_);
+    rep.feedback_ratio_min = feedback_ratio_min_;
+    rep.feedback_ratio_max = feedback_ratio_max_;
+    rep.density_residual_max = density_residual_max_;
   }
 
   const std::vector<Real>& boundaryPressures() const override
@@ -141,6 +146,7 @@ private:
     diagonal_.resize(n);
     density_rate_.resize(n);
     grad_b_.resize(n);
+    if constexpr (Method::kExtrapolated) gsum_.resize(n);
     source_.resize(n);
     wall_dv_.assign(n, Vec3::Zero());  // a new step: the wall-work record restarts at zero
     padPositions();
@@ -181,10 +187,41 @@ private:
       density_rate_[i] = rate;
       grad_b_[i] = gb;
       const Vec3 gsum = mass_ * gf + gb;
+      if constexpr (Method::kExtrapolated) gsum_[i] = gsum;
       diagonal_[i] = -(gsum.squaredNorm() + mass_ * mass_ * sq) / (density * density);
       method_.addDiagonalFeedback(diagonal_[i], gb, gsum);
       if (-diagonal_[i] < 1e-6 * reference_diagonal_) diagonal_[i] = 0;  // lone particle: no pressure
     });
+  }
+
+  /// Eq. A4b: p_b = sum_f c_bf p_f depends on p_i through c_bi, so the wall term of a_i changes
+  /// by -F_i p_i/rho0^2 with F_i = sum_b psi_b c_bi grad W_ib, and D_i (Eq. A7) by
+  /// -(F_i . gsum_i)/rho0^2 per Pa: the diagonal with the feedback is A_i - F_i . gsum_i/rho0^2.
+  /// Measured always (the ratio of the two diagonals goes to the step report). With
+  /// solver.diagonal_feedback the diagonal becomes min(A_i, A_i - F_i . gsum_i/rho0^2): the
+  /// feedback only ever shortens a Jacobi step (where c_bi > 0 makes the true diagonal larger);
+  /// where it would lengthen one (c_bi < 0, ratio < 1; measured down to -1.8 in the cylinder dam
+  /// break) using it made MLS blow up at every time step tried (docs/method_notes.md).
+  void extrapolationFeedback()
+  {
+    const std::size_t n = fluid_.size();
+    const bool use = scene_.solver.diagonal_feedback;
+    const Real inv_rho0_sq = Real(1) / (rho0_ * rho0_);
+    feedback_ratio_.resize(n);
+    parallelFor(n, [&](std::size_t i) {
+      feedback_ratio_[i] = 1;
+      if (fb_.offset[i] == fb_.offset[i + 1] || diagonal_[i] == 0) return;
+      const Vec3 f = method_.feedbackVector(i, fluid_.x[i]);           // kg/m^4
+      const Real with = diagonal_[i] - f.dot(gsum_[i]) * inv_rho0_sq;  // 1/m^2 (as A_i)
+      feedback_ratio_[i] = with / diagonal_[i];
+      if (use) diagonal_[i] = std::min(diagonal_[i], with);
+    });
+    feedback_ratio_min_ = feedback_ratio_max_ = 1.0;
+    for (std::size_t i = 0; i < n; ++i)
+    {
+      feedback_ratio_min_ = std::min(feedback_ratio_min_, double(feedback_ratio_[i]));
+      feedback_ratio_max_ = std::max(feedback_ratio_max_, double(feedback_ratio_[i]));
+    }
   }
 
   /// x4 = x padded: a neighbour's vector is then one packed load, and a subtraction and a
@@ -278,6 +315,7 @@ private:
   {
     const std::size_t n = fluid_.size();
     error_.resize(n);
+    if (clamp_p) abs_residual_.resize(n);
     const Real omega = Real(scene_.solver.omega);
     const Real dt2_over_rho0 = Real(dt * dt / rho0_);
     const bool warm = scene_.solver.warm_start;
@@ -299,12 +337,15 @@ private:
       // iteration approaches from below and the positive part is the error (DFSPH's measure).
       const Real counted = (warm && p[i] != 0) ? std::abs(residual) : std::max(residual, Real(0));
       error_[i] = counted * dt2_over_rho0;
+      if (clamp_p) abs_residual_[i] = std::abs(residual) * dt2_over_rho0;
       if (diagonal_[i] != 0)
       {
         Real next = p[i] - omega * residual / diagonal_[i];
         p[i] = clamp_p ? std::max(next, Real(0)) : next;
       }
     });
+    if (clamp_p)  // the density solve: its largest residual per iteration for the step report
+      density_residual_max_.push_back(float(parallelMax(n, [&](std::size_t i) { return abs_residual_[i]; })));
     return parallelSum(n, [&](std::size_t i) { return double(error_[i]); }) / double(std::max<std::size_t>(n, 1));
   }
 
@@ -379,14 +420,19 @@ private:
   double reference_diagonal_;  // 1/m^2, |A_i| of a full neighbourhood (Eq. A4)
 
   // Per-step scratch, in the order of the current (sorted) particles.
-  std::vector<Real> diagonal_;      // 1/m^2, A_i of Eq. A4: D_i changes by A_i kg/m^3/s^2 per Pa of p_i
-  std::vector<Real> density_rate_;  // kg/m^3/s, Eq. A2
-  std::vector<Real> source_;        // kg/m^3/s^2, s_i of Eq. A5 or A6
-  std::vector<Real> p_over_rho2_;   // p_i/rho_i^2 of the last a^p evaluation, m^5/(kg s^2)
-  std::vector<Real> error_;         // per-particle term of Eq. A9 (relative)
-  std::vector<Vec3> grad_b_;        // kg/m^4, sum_b psi_b grad W_ib
-  Vec4Array x4_, v4_, a4_;          // m, m/s, m/s^2: x, v and a^p padded to 4 components
-  std::vector<Vec3> wall_dv_;       // m/s, this step's velocity change from the p_b wall term
+  std::vector<Real> diagonal_;        // 1/m^2, A_i of Eq. A4: D_i changes by A_i kg/m^3/s^2 per Pa of p_i
+  std::vector<Real> density_rate_;    // kg/m^3/s, Eq. A2
+  std::vector<Real> source_;          // kg/m^3/s^2, s_i of Eq. A5 or A6
+  std::vector<Real> p_over_rho2_;     // p_i/rho_i^2 of the last a^p evaluation, m^5/(kg s^2)
+  std::vector<Real> error_;           // per-particle term of Eq. A9 (relative)
+  std::vector<Vec3> grad_b_;          // kg/m^4, sum_b psi_b grad W_ib
+  std::vector<Vec3> gsum_;            // kg/m^4, m sum_j grad W_ij + grad_b (extrapolations: for Eq. A4b)
+  std::vector<Real> feedback_ratio_;  // A_i with Eq. A4b over A_i without (scratch)
+  double feedback_ratio_min_ = 1.0, feedback_ratio_max_ = 1.0;
+  std::vector<Real> abs_residual_;           // |s_i - D_i| dt^2/rho0 of the density solve's sweep (scratch)
+  std::vector<float> density_residual_max_;  // per density-solve iteration, the largest of abs_residual_
+  Vec4Array x4_, v4_, a4_;                   // m, m/s, m/s^2: x, v and a^p padded to 4 components
+  std::vector<Vec3> wall_dv_;                // m/s, this step's velocity change from the p_b wall term
 };
 }  // namespace
 
@@ -395,7 +441,9 @@ std::unique_ptr<PressureSolver> makePressureSolver(const BoundaryPressureInputs&
   switch (in.scene.solver.boundary_pressure)
   {
     case BoundaryPressureMethod::Mirroring:
-      return std::make_unique<DfsphSolver<MirroredBoundaryPressure>>(in, fluid);
+      return std::make_unique<DfsphSolver<MirroredBoundaryPressure<false>>>(in, fluid);
+    case BoundaryPressureMethod::MirroringEq2:
+      return std::make_unique<DfsphSolver<MirroredBoundaryPressure<true>>>(in, fluid);
     case BoundaryPressureMethod::SphExtrapolation:
       return std::make_unique<DfsphSolver<SphBoundaryPressure>>(in, fluid);
     case BoundaryPressureMethod::Mls:

@@ -13,6 +13,8 @@ const char* toString(BoundaryPressureMethod method)
   {
     case BoundaryPressureMethod::Mirroring:
       return "mirroring";
+    case BoundaryPressureMethod::MirroringEq2:
+      return "mirroring_eq2";
     case BoundaryPressureMethod::SphExtrapolation:
       return "sph";
     case BoundaryPressureMethod::Mls:
@@ -24,9 +26,11 @@ const char* toString(BoundaryPressureMethod method)
 BoundaryPressureMethod parseBoundaryPressureMethod(const std::string& name, const std::string& key)
 {
   if (name == "mirroring") return BoundaryPressureMethod::Mirroring;
+  if (name == "mirroring_eq2") return BoundaryPressureMethod::MirroringEq2;
   if (name == "sph") return BoundaryPressureMethod::SphExtrapolation;
   if (name == "mls") return BoundaryPressureMethod::Mls;
-  throw ConfigError(key, "unknown boundary pressure method '" + name + "' (expected mirroring, sph or mls)");
+  throw ConfigError(key,
+                    "unknown boundary pressure method '" + name + "' (expected mirroring, mirroring_eq2, sph or mls)");
 }
 
 const char* toString(MlsSingularMode mode)

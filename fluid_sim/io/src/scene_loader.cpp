@@ -104,8 +104,8 @@ SolverConfig readSolver(const Entry& e)
   MapReader r(e);
   SolverConfig s;
   if (auto m = r.get("boundary_pressure"))
-    s.boundary_pressure = readNamed(
-        *m, {BoundaryPressureMethod::Mirroring, BoundaryPressureMethod::SphExtrapolation, BoundaryPressureMethod::Mls});
+    s.boundary_pressure = readNamed(*m, {BoundaryPressureMethod::Mirroring, BoundaryPressureMethod::MirroringEq2,
+                                         BoundaryPressureMethod::SphExtrapolation, BoundaryPressureMethod::Mls});
   r.read("density_error", s.density_error);
   r.read("divergence_error", s.divergence_error);
   r.read("min_iterations", s.min_iterations);
@@ -116,6 +116,7 @@ SolverConfig readSolver(const Entry& e)
   r.read("omega", s.omega);
   r.read("clamp_boundary_pressure", s.clamp_boundary_pressure);
   r.read("limit_boundary_pressure", s.limit_boundary_pressure);
+  r.read("diagonal_feedback", s.diagonal_feedback);
   r.read("mls_fit_radius", s.mls_fit_radius);
   r.read("mls_eigen_tolerance", s.mls_eigen_tolerance);
   if (auto m = r.get("mls_singular"))

@@ -10,10 +10,14 @@
 //   void prepare()                       once per step, after the densities: what stays fixed
 //                                        during both solves (the extrapolation coefficients)
 //   void addDiagonalFeedback(A, gb, g)   what p_b's dependence on p_i adds to the diagonal (Eq. A4)
+//                                        where it is part of the method (mirroring)
+//   kExtrapolated                        p_b = sum_f c_bf p_f with stored coefficients; then also
+//     Vec3 feedbackVector(i, x_i)        sum_b psi_b c_bi grad W_ib (kg/m^4), for Eq. A4b
 //   void extrapolate(p, density_solve)   p_b from the fluid pressures p, before each evaluation
 //                                        of the pressure acceleration (both solves)
 //   addWallAcceleration<kRecord>(...)    the boundary term of Eq. 1 for one fluid particle
 //   Real wallPressure(b, p_i)            the p_b that fluid particle i sees at b (forces, Eq. A12)
+//   Real contactPressure(b, p_i)         the pressure the wall bears there (contact statistics)
 //   void report(StepReport&, bodies)     the method's counts for the step report
 //   boundaryPressures()                  Pa, per boundary particle (output)
 
@@ -41,11 +45,21 @@ struct BoundaryPressureInputs
   const Neighborhoods& neighbors;
 };
 
-/// Mirroring (Eq. 2, Akinci 2012): p_b = p_i, evaluated per fluid particle; nothing is stored per
-/// boundary particle. Its p_b scales with p_i, so it adds to the diagonal.
+/// Mirroring (Akinci 2012): the wall term of Eq. 1 with a pressure per fluid particle, nothing
+/// stored per boundary particle.
+///   kEq2 = false (`mirroring`, Eq. A19): p_b = 0, the single term (p_i/rho_i^2) grad_b: the force of the
+///     wall's density constraint on i, as SPlisHSPlasH's DFSPH applies it to Akinci boundaries.
+///     It is the adjoint of the wall part of the discrete divergence (A7), so it does no net work
+///     on water at rest (docs/method_notes.md).
+///   kEq2 = true (`mirroring_eq2`): the paper's Eq. 2, p_b = p_i, which adds (p_i/rho0^2) grad_b;
+///     its p_b scales with p_i, so it adds to the diagonal, and along a wall where p_i grows with
+///     depth the added term has a curl and pumps energy into the water.
+template <bool kEq2>
 class MirroredBoundaryPressure
 {
 public:
+  static constexpr bool kExtrapolated = false;
+
   explicit MirroredBoundaryPressure(const BoundaryPressureInputs& in)
       : in_(in)
       , inv_rho0_sq_(Real(1) / (in.constants.rho0 * in.constants.rho0))
@@ -56,27 +70,45 @@ public:
   void buildLists() {}
   void prepare() {}
 
-  /// Eq. A4: p_b = p_i adds (p_i/rho0^2) grad_b to a_i, so the diagonal gains -grad_b . gsum / rho0^2.
+  /// Eq. A4: p_b = p_i adds (p_i/rho0^2) grad_b to a_i, so the diagonal gains -grad_b . gsum / rho0^2
+  /// (Eq. 2 only; the single term's p_b = 0 does not depend on p_i).
   void addDiagonalFeedback(Real& diagonal, const Vec3& grad_b, const Vec3& gsum) const
   {
-    const Real rho0 = in_.constants.rho0;
-    diagonal -= grad_b.dot(gsum) / (rho0 * rho0);
+    if constexpr (kEq2)
+    {
+      const Real rho0 = in_.constants.rho0;
+      diagonal -= grad_b.dot(gsum) / (rho0 * rho0);
+    }
   }
 
   void extrapolate(const std::vector<Real>&, bool) {}
 
-  /// Eq. 2 in Eq. 1: (p_i/rho_i^2 + p_i/rho0^2) sum_b psi_b grad W_ib, with grad_b = sum_b psi_b
-  /// grad W_ib (kg/m^4) and p_over_rho2 = p_i/rho_i^2. With kRecord also adds wall_dt (s) times
-  /// the p_b part to wall_dv (m/s; the wall-work diagnostic).
+  /// Eq. A19 (p_b = 0, single term) or Eq. 2 (p_b = p_i): (p_i/rho_i^2 [+ p_i/rho0^2]) grad_b,
+  /// with grad_b = sum_b psi_b grad W_ib (kg/m^4) and p_over_rho2 = p_i/rho_i^2. With kRecord
+  /// also adds wall_dt (s) times the p_b part to wall_dv (m/s; the wall-work diagnostic).
   template <bool kRecord>
   void addWallAcceleration(std::size_t, const Vec3&, Real p_over_rho2, Real p_i, const Vec3& grad_b, Real wall_dt,
                            Vec3& acc, Vec3& wall_dv) const
   {
-    acc -= (p_over_rho2 + p_i * inv_rho0_sq_) * grad_b;
-    if constexpr (kRecord) wall_dv -= (wall_dt * p_i * inv_rho0_sq_) * grad_b;
+    if constexpr (kEq2)
+    {
+      acc -= (p_over_rho2 + p_i * inv_rho0_sq_) * grad_b;
+      if constexpr (kRecord) wall_dv -= (wall_dt * p_i * inv_rho0_sq_) * grad_b;
+    }
+    else
+      acc -= p_over_rho2 * grad_b;
   }
 
   Real wallPressure(Index, Real p_i) const
+  {
+    if constexpr (kEq2)
+      return p_i;
+    else
+      return 0;
+  }
+
+  /// The pressure the wall bears from i (contact statistics): p_i for both forms.
+  Real contactPressure(Index, Real p_i) const
   {
     return p_i;
   }
@@ -108,6 +140,8 @@ private:
 class ExtrapolatedBoundaryPressure
 {
 public:
+  static constexpr bool kExtrapolated = true;
+
   /// `fit_radius` (m): how far from b the fluid neighbours of the fit reach.
   ExtrapolatedBoundaryPressure(const BoundaryPressureInputs& in, Real fit_radius);
 
@@ -144,12 +178,46 @@ public:
     return pb_[b];
   }
 
+  Real contactPressure(Index b, Real) const
+  {
+    return pb_[b];
+  }
+
   const std::vector<Real>& boundaryPressures() const
   {
     return pb_;
   }
 
+  /// Eq. A4b: how fluid particle i's own pressure reaches its wall term through the
+  /// extrapolation, sum_b psi_b c_bi grad W_ib over its boundary neighbours b (kg/m^4); c_bi = 0
+  /// where i is not in b's fit. `xi` (m) is x_i.
+  Vec3 feedbackVector(std::size_t i, const Vec3& xi) const
+  {
+    const NeighborLists& fb = in_.neighbors.fluid_boundary;
+    const Real rho0 = in_.constants.rho0;
+    Vec3 sum = Vec3::Zero();
+    for (Index k = fb.offset[i]; k < fb.offset[i + 1]; ++k)
+    {
+      const Index b = fb.index[k];
+      const Index q = row_of_[b];
+      Real c = 0;
+      for (Index e = fit_lists_.offset[q]; e < fit_lists_.offset[q + 1]; ++e)
+        if (fit_lists_.index[e] == Index(i))
+        {
+          c = coefficients_[e];
+          break;
+        }
+      sum += (rho0 * volume_[b] * c * fb.grad_factor[k]) * (xi - xb_[b]);
+    }
+    return sum;
+  }
+
 protected:
+  /// The coefficient figures of the step report (smallest and largest c_bf, largest and mean
+  /// sum_f |c_bf| over the active boundary particles), from the coefficients of prepare().
+  void coefficientFigures();
+  void reportCoefficients(StepReport& rep) const;
+
   BoundaryPressureInputs in_;
   Real inv_rho0_sq_;                                        // m^6/kg^2
   Real fit_radius_;                                         // m
@@ -161,7 +229,9 @@ protected:
   NeighborLists fit_lists_;                                 // rows: active_; entries: fluid particles; weight: W(r)
   std::vector<Real> coefficients_;                          // c_bf per entry of fit_lists_ (unit-less)
   std::unique_ptr<std::atomic<std::uint8_t>[]> is_active_;  // per boundary particle (scratch)
-  std::vector<Vec3> queries_;                               // m, positions of active_ (scratch)
+  std::vector<Index> row_of_;                               // per boundary particle: its row in active_ (active only)
+  double c_min_ = 0, c_max_ = 0, abs_sum_max_ = 0, abs_sum_mean_ = 0;  // coefficientFigures()
+  std::vector<Vec3> queries_;                                          // m, positions of active_ (scratch)
 };
 
 /// SPH extrapolation (Eq. 3, Adami 2012): c_bf = W_bf / sum W, and in the density solve the
@@ -178,6 +248,7 @@ public:
   void report(StepReport& rep, const BodySet&) const
   {
     rep.active_boundary = active_.size();
+    reportCoefficients(rep);
   }
 };
 
@@ -195,6 +266,7 @@ public:
   void report(StepReport& rep, const BodySet&) const
   {
     rep.active_boundary = active_.size();
+    reportCoefficients(rep);
     rep.mls_fallbacks = fallbacks_;
     rep.mls_reduced = reduced_;
   }

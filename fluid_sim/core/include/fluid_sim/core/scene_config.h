@@ -16,12 +16,13 @@ namespace fluid_sim
 {
 enum class BoundaryPressureMethod
 {
-  Mirroring,         // Akinci 2012: p_b := p_f (paper Eq. 2)
+  Mirroring,         // the wall's density constraint alone: p_b = 0 in Eq. 1 (Akinci's single term)
+  MirroringEq2,      // Akinci 2012 as the paper writes it: p_b := p_f (paper Eq. 2)
   SphExtrapolation,  // Adami 2012 (paper Eq. 3)
   Mls                // the paper's MLS extrapolation (Eqs. 7-16)
 };
 
-/// "mirroring" | "sph" | "mls"
+/// "mirroring" | "mirroring_eq2" | "sph" | "mls"
 const char* toString(BoundaryPressureMethod method);
 /// Throws ConfigError(key, ...) for an unknown name.
 BoundaryPressureMethod parseBoundaryPressureMethod(const std::string& name, const std::string& key);
@@ -159,15 +160,17 @@ struct SolverConfig
   double omega = 0.5;                   // relaxed Jacobi factor            key: solver.omega
   bool clamp_boundary_pressure = true;  // p_b >= 0 in the density solve key: solver.clamp_boundary_pressure
   // Limit each extrapolated p_b (sph, mls) to the range of its fluid neighbours' pressures,
-  // widened by rho0 |g - a_b| * 5 spacings (the hydrostatic difference between the nearest water
-  // and the wall, about 1 spacing, plus margin for solver noise). Inactive at rest and in smooth
-  // flow (the buoyancy and pressure checks do not change); it
-  // stops a fit over few one-sided neighbours (a splash, an impact) from extrapolating a wall
-  // pressure the water around it could not hold, which shot single particles off with MLS at
-  // dt >= 1 ms (docs/validation.md). false = the paper's unlimited extrapolation.
+  // widened by rho0 |g - a_b| times the fit radius (Eq. A11: the largest hydrostatic difference
+  // between b and a neighbour of its fit, so it never binds in water at rest). It stops a fit
+  // over few one-sided neighbours (a splash, an impact) from extrapolating a wall pressure the
+  // water around it could not hold: without it MLS shoots single particles off in the 1 cm
+  // cylinder dam break from 1.4-1.75 ms (docs/method_notes.md). false = the paper's fit.
   bool limit_boundary_pressure = true;  //                              key: solver.limit_boundary_pressure
-  double mls_fit_radius = 3.0;          // spacings; radius of the MLS fit  key: solver.mls_fit_radius
-  double mls_eigen_tolerance = 0.02;    // smallest/largest eigenvalue    key: solver.mls_eigen_tolerance
+  // Include in the Jacobi diagonal A_i (Eq. A4) the dependence of the extrapolated p_b (sph,
+  // mls) on p_i through its coefficient c_bi (Eq. A4b). Mirroring's p_b = p_i always has it.
+  bool diagonal_feedback = false;     //                              key: solver.diagonal_feedback
+  double mls_fit_radius = 2.0;        // spacings; radius of the MLS fit  key: solver.mls_fit_radius
+  double mls_eigen_tolerance = 0.02;  // smallest/largest eigenvalue    key: solver.mls_eigen_tolerance
   MlsSingularMode mls_singular = MlsSingularMode::Fallback;  //         key: solver.mls_singular
 };
 

@@ -37,7 +37,23 @@ struct StepReport
   std::size_t mls_fallbacks = 0;    // boundary particles using Eq. 16 this step (MLS only)
   std::size_t mls_reduced = 0;      // boundary particles with a pseudo-inverse fit (MLS only)
   std::size_t active_boundary = 0;  // boundary particles with a fluid neighbour
-  std::size_t neighbor_pairs = 0;   // fluid-fluid + fluid-boundary pairs in this step's lists
+  // The extrapolation p_b = sum_f c_bf p_f (sph, mls) this step, over the active boundary
+  // particles: the smallest and largest coefficient c_bf, and the largest and mean sum_f |c_bf|
+  // (how much the fit amplifies noise in the fluid pressures; 1 for weighted averages).
+  double coefficient_min = 0.0;
+  double coefficient_max = 0.0;
+  double coefficient_abs_sum_max = 0.0;
+  double coefficient_abs_sum_mean = 0.0;
+  // The extrapolation's feedback on the Jacobi diagonal (Eq. A4b), as the ratio of the diagonal
+  // with it to the diagonal without it, over the fluid particles next to a wall: smallest and
+  // largest (1 = no feedback; mirroring's is always included and not reported here).
+  double feedback_ratio_min = 1.0;
+  double feedback_ratio_max = 1.0;
+  // Per iteration of the density solve: the largest relative residual |s_i - D_i| dt^2/rho0 over
+  // the particles (the mean, Eq. A9, is density_error). A Jacobi iteration that diverges
+  // somewhere shows here first.
+  std::vector<float> density_residual_max;
+  std::size_t neighbor_pairs = 0;  // fluid-fluid + fluid-boundary pairs in this step's lists
   bool unstable = false;
   std::string reason;  // why unstable
   // Wall-clock split of the step, ms.
