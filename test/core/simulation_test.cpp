@@ -76,6 +76,65 @@ TEST(Simulation, FluidInsideSolidsOrOutsideContainersIsRemovedAndCounted)
   for (const Vec3& x : sim.positions()) EXPECT_GE((x.cast<double>() - Vec3d(0.1, 0.1, 0.1)).norm(), 0.06);
 }
 
+TEST(Simulation, ExplicitParticlesAreAddedAsTheyAreWithoutThoseTheLatticeOrTheStepWouldDrop)
+{
+  SceneConfig s = smallScene();  // a lattice block of 4 x 4 x 4 first
+  BoundaryConfig ball;
+  ball.name = "ball";
+  ball.type = ShapeType::Sphere;
+  ball.sphere = {Vec3d(0.4, 0.4, 0.4), 0.06};
+  s.boundaries.push_back(ball);
+  FluidBlockConfig saved;
+  saved.particles = ExplicitParticles();
+  saved.particles->positions = {Vec3d(0.31, 0.0, 0.02), Vec3d(0.4, 0.4, 0.42), Vec3d(0.3, -0.1, 0.55),
+                                Vec3d(0.1, 0.1, 0.61), Vec3d(0.5, 0.2, 0.0)};
+  saved.particles->velocities = {Vec3d(1, 2, 3), Vec3d(0, 0, 0), Vec3d(-0.5, 0, 0), Vec3d(0, 0, 0), Vec3d(0, 0, 9)};
+  s.fluid.push_back(saved);
+  Simulation sim(s);
+  // Dropped: the second (in the ball) and the fourth (outside the domain, max 0.6).
+  EXPECT_EQ(sim.removedAtStart(), 2u);
+  ASSERT_EQ(sim.numFluidParticles(), 64u + 3u);
+  const std::size_t kept[] = {0, 2, 4};
+  for (std::size_t k = 0; k < 3; ++k)
+  {
+    // In their order, after the lattice, exactly (no lattice), with their own velocities.
+    EXPECT_EQ(sim.positions()[64 + k], saved.particles->positions[kept[k]].cast<Real>()) << k;
+    EXPECT_EQ(sim.velocities()[64 + k], saved.particles->velocities[kept[k]].cast<Real>()) << k;
+  }
+  EXPECT_EQ(sim.densities()[64], Real(s.rest_density));
+  // The mass of a lattice particle: the state must come from a run at the same spacing.
+  EXPECT_EQ(sim.particleMass(), Real(s.rest_density * s.spacing * s.spacing * s.spacing));
+}
+
+TEST(SceneValidation, ExplicitParticlesNameTheirKey)
+{
+  SceneConfig s = smallScene();
+  s.fluid[0].particles = ExplicitParticles{{Vec3d(0.1, 0.1, 0.1)}, {Vec3d::Zero()}};
+  EXPECT_EQ(errorKey(s), "fluid[0]");  // a box too
+  s.fluid[0].box = AxisBox();
+  EXPECT_EQ(errorKey(s), "<no error>");
+  s.fluid[0].velocity = Vec3d(1, 0, 0);
+  EXPECT_EQ(errorKey(s), "fluid[0]");  // a box's velocity too
+  s.fluid[0].velocity = Vec3d::Zero();
+
+  s.fluid[0].particles->velocities.push_back(Vec3d::Zero());
+  EXPECT_EQ(errorKey(s), "fluid[0].particles");  // 1 position, 2 velocities
+  s.fluid[0].particles = ExplicitParticles();
+  EXPECT_EQ(errorKey(s), "fluid[0].particles");  // empty
+  s.fluid[0].particles = ExplicitParticles{{Vec3d(0.1, 0.1, 0.1), Vec3d(0.1, 0.1, std::nan(""))}, {}};
+  s.fluid[0].particles->velocities.resize(2, Vec3d::Zero());
+  EXPECT_EQ(errorKey(s), "fluid[0].particles");
+  s.fluid[0].particles->positions[1].z() = 0.2;
+  s.fluid[0].particles->velocities[0].x() = INFINITY;
+  EXPECT_EQ(errorKey(s), "fluid[0].particles");
+  s.fluid[0].particles->velocities[0].x() = 0.0;
+  EXPECT_EQ(errorKey(s), "<no error>");
+
+  // Particles outside the domain are dropped, not refused; with none left the fill says so.
+  s.fluid[0].particles->positions = {Vec3d(5, 5, 5), Vec3d(-5, 0, 0)};
+  EXPECT_EQ(errorKey(s), "fluid");
+}
+
 TEST(Simulation, FreeFallLeavesTheDomainAndIsCountedNotNaN)
 {
   SceneConfig s = smallScene();

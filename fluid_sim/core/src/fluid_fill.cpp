@@ -1,4 +1,4 @@
-// The initial fluid lattice (see fluid_fill.h).
+// The initial fluid: lattices and explicit particles (see fluid_fill.h).
 
 #include "fluid_sim/core/fluid_fill.h"
 
@@ -7,6 +7,7 @@
 
 #include "fluid_sim/core/boundary_sampling.h"
 #include "fluid_sim/core/neighbor_search.h"
+#include "fluid_sim/core/step_checks.h"
 
 namespace fluid_sim
 {
@@ -69,8 +70,28 @@ std::size_t fillFluid(const SceneConfig& scene, const BodySet& bodies, FluidPart
   const double sp = scene.spacing;  // m
   const Real rho0 = Real(scene.rest_density);
   std::size_t dropped = 0;
+  const Vec3 domain_min = scene.domain.min.cast<Real>(), domain_max = scene.domain.max.cast<Real>();  // m
   for (const FluidBlockConfig& block : scene.fluid)
   {
+    if (block.particles)
+    {
+      // A saved state: every particle as it is, in the given order (the order the step sorts
+      // from, so a run resumed from a frame sorts as the uninterrupted run did). A particle the
+      // step would remove (outside the domain) or the lattice would leave out (in a solid, outside
+      // a container, on an open shell) is dropped and counted like a lattice point.
+      const ExplicitParticles& p = *block.particles;
+      for (std::size_t k = 0; k < p.positions.size(); ++k)
+      {
+        const Vec3d& pos = p.positions[k];
+        if (!insideBox(pos.cast<Real>(), domain_min, domain_max) || blockedByBody(pos, bodies, open_shells))
+        {
+          ++dropped;
+          continue;
+        }
+        fluid.add(pos.cast<Real>(), p.velocities[k].cast<Real>(), rho0);
+      }
+      continue;
+    }
     const Vec3d ext = block.box.max - block.box.min;
     // Cell-centred lattice at exactly the spacing (a stretched lattice would start under rest
     // density): a particle stands for the cube of side s around it, so a block that touches a

@@ -86,6 +86,28 @@ void requireBox(const AxisBox& box, const std::string& key)
                                  str(box.min[k]) + ", max " + str(box.max[k]) + ")");
 }
 
+/// An explicit-particle block: no box or velocity beside the particles, one velocity per
+/// position, at least one particle, every value finite. Particles outside the domain are not an
+/// error: the fill drops and counts them, as the step does with those that leave it.
+void requireParticles(const FluidBlockConfig& block, const std::string& key)
+{
+  if (!block.box.min.isZero(0) || !block.box.max.isZero(0) || !block.velocity.isZero(0))
+    throw ConfigError(key, "a fluid block is either a box (with a velocity) or particles, not both");
+  const ExplicitParticles& p = *block.particles;
+  const std::string pkey = key + ".particles";
+  if (p.velocities.size() != p.positions.size())
+    throw ConfigError(pkey, std::to_string(p.positions.size()) + " positions but " +
+                                std::to_string(p.velocities.size()) + " velocities");
+  if (p.positions.empty()) throw ConfigError(pkey, "holds no particle");
+  for (std::size_t k = 0; k < p.positions.size(); ++k)
+  {
+    if (!p.positions[k].allFinite())
+      throw ConfigError(pkey, "particle " + std::to_string(k) + " has a non-finite position");
+    if (!p.velocities[k].allFinite())
+      throw ConfigError(pkey, "particle " + std::to_string(k) + " has a non-finite velocity");
+  }
+}
+
 bool boxInside(const AxisBox& inner, const AxisBox& outer)
 {
   return (inner.min.array() >= outer.min.array()).all() && (inner.max.array() <= outer.max.array()).all();
@@ -153,6 +175,11 @@ void validate(const SceneConfig& s)
   for (std::size_t i = 0; i < s.fluid.size(); ++i)
   {
     const std::string key = "fluid[" + std::to_string(i) + "]";
+    if (s.fluid[i].particles)
+    {
+      requireParticles(s.fluid[i], key);
+      continue;
+    }
     requireBox(s.fluid[i].box, key + ".box");
     requireFinite(s.fluid[i].velocity, key + ".velocity");
     if (!boxInside(s.fluid[i].box, s.domain))

@@ -121,7 +121,7 @@ struct Simulation::Impl
   FluidConstants constants;
   BodySet bodies;
   FluidParticles fluid;
-  std::size_t removed_at_start;  // lattice points left out of the initial fill
+  std::size_t removed_at_start;  // lattice points and explicit particles left out of the initial fill
   std::size_t initial_count;     // fluid particles at t = 0
   Neighborhoods neighbors;
   NonPressureForces forces;

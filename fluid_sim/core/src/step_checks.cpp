@@ -47,9 +47,7 @@ std::size_t removeOutsideDomain(FluidParticles& fluid, const AxisBox& domain)
   const Vec3 lo = domain.min.cast<Real>(), hi = domain.max.cast<Real>();
   const std::size_t n = fluid.size();
   std::vector<std::uint8_t> inside(n);
-  parallelFor(n, [&](std::size_t i) {
-    inside[i] = (fluid.x[i].array() >= lo.array()).all() && (fluid.x[i].array() <= hi.array()).all();
-  });
+  parallelFor(n, [&](std::size_t i) { inside[i] = insideBox(fluid.x[i], lo, hi); });
   return fluid.keepIf(inside);
 }
 

@@ -1,7 +1,8 @@
 #pragma once
 // The initial fluid: the scene's fluid blocks as cell-centred lattices at the particle spacing,
-// without the points that fall inside a solid body, outside a container or too close to an open
-// shell (a cup, a paddle).
+// or as the explicit particles of a saved state, without the points that fall inside a solid
+// body, outside a container or too close to an open shell (a cup, a paddle), and without explicit
+// particles outside the domain.
 
 #include <cstddef>
 
@@ -11,9 +12,10 @@
 
 namespace fluid_sim
 {
-/// Appends the particles of every block of scene.fluid to `fluid` (at rest density, zero
-/// pressure, the block's velocity). Returns the number of lattice points left out. Throws
-/// ConfigError (key `fluid`) when no particle remains.
+/// Appends the particles of every block of scene.fluid to `fluid`, in block order (at rest
+/// density, zero pressure; a box's lattice with the block's velocity, explicit particles in their
+/// order with their own velocities). Returns the number of lattice points and explicit particles
+/// left out. Throws ConfigError (key `fluid`) when no particle remains.
 std::size_t fillFluid(const SceneConfig& scene, const BodySet& bodies, FluidParticles& fluid);
 
 }  // namespace fluid_sim

@@ -117,10 +117,24 @@ struct BoundaryConfig
   double sample_spacing = 0.0;    // m, 0 = scene spacing; may be finer          key: sample_spacing
 };
 
+/// Fluid particles given one by one instead of as a lattice: the state of an earlier run (key
+/// particles {file: FILE}, a PLY frame the runner wrote). Each particle stands for the mass of a
+/// lattice particle, rest_density * spacing^3, so the state must come from a run with the same
+/// spacing and rest density.
+struct ExplicitParticles
+{
+  std::vector<Vec3d> positions;   // m, world
+  std::vector<Vec3d> velocities;  // m/s, one per position
+};
+
+/// One entry of `fluid`: a box filled on the spacing lattice, or explicit particles.
 struct FluidBlockConfig
 {
   AxisBox box;                     // key: box {min, max}, m
-  Vec3d velocity = Vec3d::Zero();  // key: velocity, m/s
+  Vec3d velocity = Vec3d::Zero();  // key: velocity, m/s (a box block only)
+  /// key: particles {file}. When set, the block is these particles and box and velocity stay at
+  /// their defaults (all zero).
+  std::optional<ExplicitParticles> particles;
 };
 
 struct TimeStepConfig

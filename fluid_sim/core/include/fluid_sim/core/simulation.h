@@ -134,9 +134,11 @@ public:
   const std::vector<Real>& boundaryVolumes() const;     // m^3
 
   std::size_t initialFluidParticles() const;  // sampled fluid particles kept at start
-  std::size_t removedAtStart() const;         // lattice points dropped inside solids / outside containers
-  std::size_t removedTotal() const;           // particles that left the domain since start
-  double particleMass() const;                // kg
+  /// Lattice points and explicit particles dropped at start: inside solids, outside containers,
+  /// on open shells, or (explicit particles) outside the domain.
+  std::size_t removedAtStart() const;
+  std::size_t removedTotal() const;  // particles that left the domain since start
+  double particleMass() const;       // kg
 
 private:
   struct Impl;

@@ -15,6 +15,14 @@ namespace fluid_sim
 /// and rep.reason.
 void checkStability(const FluidParticles& fluid, const SceneConfig& scene, Real mass, double dt, StepReport& rep);
 
+/// Whether the position x (m) lies in the box [lo, hi] (m, in Real as the particles are): the
+/// domain test of removeOutsideDomain(), which the initial fill of explicit particles shares so that
+/// a particle the step would keep is kept.
+inline bool insideBox(const Vec3& x, const Vec3& lo, const Vec3& hi)
+{
+  return (x.array() >= lo.array()).all() && (x.array() <= hi.array()).all();
+}
+
 /// Removes the particles outside scene.domain; returns how many.
 std::size_t removeOutsideDomain(FluidParticles& fluid, const AxisBox& domain);
 

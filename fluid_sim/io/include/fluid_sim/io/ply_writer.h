@@ -1,6 +1,7 @@
 #pragma once
 // Particle frames as binary little-endian PLY (readable by ParaView, Blender, CloudCompare):
-// one `vertex` element with float properties x y z vx vy vz pressure density.
+// one `vertex` element with float properties x y z vx vy vz pressure density. ply_reader.h reads
+// them back to start a run from a saved state.
 
 #include <string>
 #include <vector>

@@ -40,7 +40,7 @@ struct RunSummary
 
   std::size_t initial_fluid_particles = 0;  // sampled and kept at the start
   std::size_t final_fluid_particles = 0;
-  std::size_t removed_at_start = 0;  // lattice points inside solids / outside containers
+  std::size_t removed_at_start = 0;  // lattice points and explicit particles left out (Simulation::removedAtStart)
   std::size_t removed_total = 0;     // left the domain during the run
   std::size_t boundary_particles = 0;
 
