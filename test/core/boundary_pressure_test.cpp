@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <functional>
 #include <random>
 
 #include "fluid_sim/core/kernel.h"
@@ -187,4 +188,99 @@ TEST(MlsExtrapolation, PseudoInverseKeepsObservableSlopesOnACoplanarNeighbourhoo
   double pb = 0;
   for (std::size_t k = 0; k < xs.size(); ++k) pb += double(coef[k]) * p[k];
   EXPECT_NEAR(pb, 1000 + 5000 * xb.x(), 1e-2);
+}
+
+TEST(MlsExtrapolation, RegularizedSlopesAreDampedAndContinuousWhereTheFallbackJumps)
+{
+  // Eq. A20. A flat layer of neighbours above a wall particle, every other one lifted by a height
+  // h: the wall-normal eigenvalue of the normalised moment matrix grows from 0 with h. The
+  // fallback switches from the weighted mean to the full fit where the eigenvalue ratio crosses
+  // tau, so p_b jumps there; the damped fit changes continuously, keeps sum_f c_bf = 1, and scales
+  // the normal slope's contribution by exactly r^2 / (r^2 + tau^2), r = lambda_min / lambda_max.
+  const Real s = Real(0.02), radius = 3 * s;  // a radius that keeps every lifted neighbour in reach
+  const double tau = 0.1;
+  const Vec3 xb(0, 0, 0);
+  const CubicKernel kernel(radius);
+  struct Layer
+  {
+    std::vector<Vec3> x;
+    std::vector<Real> w;
+  };
+  auto layer = [&](Real h) {
+    Layer l;
+    for (int j = -1; j <= 1; ++j)
+      for (int i = -1; i <= 1; ++i)
+      {
+        const Vec3 x(i * s, j * s, s + ((i + j) % 2 == 0 ? h : Real(0)));
+        l.x.push_back(x);
+        l.w.push_back(kernel.W(x.norm()));
+      }
+    return l;
+  };
+  const auto depth = [](const Vec3& x) { return double(1000 - 9810 * x.z()); };  // Pa, hydrostatic
+  auto pb = [&](const Layer& l, MlsSingularMode mode, double tol, MlsFit* fit = nullptr, double* csum = nullptr) {
+    std::vector<Real> c(l.x.size());
+    const MlsFit f = mlsCoefficients(
+        xb, int(l.x.size()), [&](int k) { return l.x[k]; }, l.w.data(), radius, tol, mode, c.data());
+    if (fit) *fit = f;
+    double sum = 0, value = 0;
+    for (std::size_t k = 0; k < l.x.size(); ++k)
+    {
+      sum += c[k];
+      value += double(c[k]) * depth(l.x[k]);
+    }
+    if (csum) *csum = sum;
+    return value;
+  };
+  // Eigenvalue ratio of the normalised moment matrix (Eqs. 7-10 with coordinates / radius).
+  auto ratio = [&](const Layer& l) {
+    double wsum = 0;
+    Vec3d d = Vec3d::Zero();
+    for (std::size_t k = 0; k < l.x.size(); ++k)
+    {
+      wsum += l.w[k];
+      d += double(l.w[k]) * l.x[k].cast<double>();
+    }
+    d /= wsum;
+    Mat3d m = Mat3d::Zero();
+    for (std::size_t k = 0; k < l.x.size(); ++k)
+    {
+      const Vec3d y = (l.x[k].cast<double>() - d) / double(radius);
+      m += double(l.w[k]) / wsum * y * y.transpose();
+    }
+    const Vec3d lambda = Eigen::SelfAdjointEigenSolver<Mat3d>(m).eigenvalues();
+    return lambda(0) / lambda(2);
+  };
+  double step_fallback = 0, step_damped = 0, prev_f = 0, prev_d = 0;
+  bool switched = false;
+  MlsFit prev_kind = MlsFit::Fallback;
+  for (int k = 0; k <= 300; ++k)
+  {
+    const Layer l = layer(s * Real(k) / 300);  // lifts 0 .. s
+    MlsFit kind;
+    double csum = 0;
+    const double f = pb(l, MlsSingularMode::Fallback, tau, &kind);
+    const double d = pb(l, MlsSingularMode::Regularized, tau, nullptr, &csum);
+    EXPECT_NEAR(csum, 1.0, 1e-5) << k;
+    if (k > 0)
+    {
+      step_fallback = std::max(step_fallback, std::abs(f - prev_f));
+      step_damped = std::max(step_damped, std::abs(d - prev_d));
+      switched = switched || (prev_kind == MlsFit::Fallback && kind == MlsFit::Full);
+    }
+    prev_f = f;
+    prev_d = d;
+    prev_kind = kind;
+    if (k % 50 == 25)
+    {
+      // Only the normal direction has a slope here (the lifted pattern is symmetric in x and y),
+      // so the damped p_b lies between the mean and the full fit, at the damping factor.
+      const double full = pb(l, MlsSingularMode::PseudoInverse, 1e-9);
+      const double mean = pb(l, MlsSingularMode::Fallback, 1.0);  // always Eq. 16
+      const double r = ratio(l);
+      EXPECT_NEAR((d - mean) / (full - mean), r * r / (r * r + tau * tau), 1e-3) << "lift " << k << ", r " << r;
+    }
+  }
+  EXPECT_TRUE(switched) << "the sweep should cross the fallback's threshold";
+  EXPECT_GT(step_fallback, 10 * step_damped) << "fallback " << step_fallback << " Pa, damped " << step_damped << " Pa";
 }

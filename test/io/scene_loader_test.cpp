@@ -323,9 +323,9 @@ TEST(SceneLoader, ExactlyOneShapeKey)
 TEST(SceneLoader, UnknownEnumValue)
 {
   expectError(kBase + "solver: {boundary_pressure: mirror}\n", "solver.boundary_pressure",
-              "unknown value 'mirror' (expected mirroring, sph or mls)");
+              "unknown value 'mirror' (expected mirroring, mirroring_eq2, sph or mls)");
   expectError(kBase + "viscosity: {model: laminar}\n", "viscosity.model", "expected none, artificial or xsph");
-  expectError(kBase + "solver: {mls_singular: ignore}\n", "solver.mls_singular", "expected fallback or pseudo_inverse");
+  expectError(kBase + "solver: {mls_singular: ignore}\n", "solver.mls_singular", "expected fallback, pseudo_inverse or regularized");
 }
 
 TEST(SceneLoader, TimeStepIsFixedOrAdaptive)

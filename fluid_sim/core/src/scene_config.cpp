@@ -35,7 +35,16 @@ BoundaryPressureMethod parseBoundaryPressureMethod(const std::string& name, cons
 
 const char* toString(MlsSingularMode mode)
 {
-  return mode == MlsSingularMode::Fallback ? "fallback" : "pseudo_inverse";
+  switch (mode)
+  {
+    case MlsSingularMode::Fallback:
+      return "fallback";
+    case MlsSingularMode::PseudoInverse:
+      return "pseudo_inverse";
+    case MlsSingularMode::Regularized:
+      return "regularized";
+  }
+  return "?";
 }
 
 const char* toString(ViscosityModel model)

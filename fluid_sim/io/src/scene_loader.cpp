@@ -125,7 +125,8 @@ SolverConfig readSolver(const Entry& e)
   r.read("mls_fit_radius", s.mls_fit_radius);
   r.read("mls_eigen_tolerance", s.mls_eigen_tolerance);
   if (auto m = r.get("mls_singular"))
-    s.mls_singular = readNamed(*m, {MlsSingularMode::Fallback, MlsSingularMode::PseudoInverse});
+    s.mls_singular =
+        readNamed(*m, {MlsSingularMode::Fallback, MlsSingularMode::PseudoInverse, MlsSingularMode::Regularized});
   r.finish();
   return s;
 }

@@ -60,9 +60,19 @@ MlsFit mlsCoefficients(const Vec3& xb, int n, PosAt&& pos, const Real* w, double
   Vec3d q = Vec3d::Zero();  // q = M'^+ y_b, so that p_b = sum_f p_f (w_f / sum w)(1 + q . y_f)
   if (n < 4 || !(lmax > 1e-12))
     fit = MlsFit::Fallback;
+  else if (mode == MlsSingularMode::Regularized)
+  {
+    // Eq. A20, Tikhonov-damped slopes: each direction weighted by lambda / (lambda^2 + (tol lambda_max)^2),
+    // 1/lambda where it is well observed and going smoothly to 0 where it is not, so p_b changes
+    // continuously as particles move (no switch between a fit and the fallback).
+    const double tau2 = (eigen_tolerance * lmax) * (eigen_tolerance * lmax);
+    const Mat3d& v = eig.eigenvectors();
+    for (int e = 0; e < 3; ++e) q += v.col(e) * (v.col(e).dot(yb) * lambda(e) / (lambda(e) * lambda(e) + tau2));
+    if (lambda(0) < eigen_tolerance * lmax) fit = MlsFit::Reduced;
+  }
   else if (lambda(0) < eigen_tolerance * lmax)
     fit = mode == MlsSingularMode::Fallback ? MlsFit::Fallback : MlsFit::Reduced;
-  if (fit != MlsFit::Fallback)
+  if (fit != MlsFit::Fallback && mode != MlsSingularMode::Regularized)
   {
     const Mat3d& v = eig.eigenvectors();
     for (int e = 0; e < 3; ++e)

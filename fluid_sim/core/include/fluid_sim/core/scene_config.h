@@ -30,8 +30,9 @@ BoundaryPressureMethod parseBoundaryPressureMethod(const std::string& name, cons
 /// How MLS treats a (nearly) singular moment matrix M_b (docs/method.md, MLS).
 enum class MlsSingularMode
 {
-  Fallback,      // Eq. 16: p_b = alpha_b whenever the smallest eigenvalue ratio is below the tolerance
-  PseudoInverse  // drop only the weak directions; keep the observable slopes
+  Fallback,       // Eq. 16: p_b = alpha_b whenever the smallest eigenvalue ratio is below the tolerance
+  PseudoInverse,  // drop only the weak directions; keep the observable slopes
+  Regularized     // every direction, damped smoothly by its eigenvalue: lambda / (lambda^2 + (tol lambda_max)^2)
 };
 const char* toString(MlsSingularMode mode);
 
@@ -182,10 +183,12 @@ struct SolverConfig
   bool limit_boundary_pressure = true;  //                              key: solver.limit_boundary_pressure
   // Include in the Jacobi diagonal A_i (Eq. A4) the dependence of the extrapolated p_b (sph,
   // mls) on p_i through its coefficient c_bi (Eq. A4b). Mirroring's p_b = p_i always has it.
-  bool diagonal_feedback = false;     //                              key: solver.diagonal_feedback
-  double mls_fit_radius = 2.0;        // spacings; radius of the MLS fit  key: solver.mls_fit_radius
-  double mls_eigen_tolerance = 0.02;  // smallest/largest eigenvalue    key: solver.mls_eigen_tolerance
-  MlsSingularMode mls_singular = MlsSingularMode::Fallback;  //         key: solver.mls_singular
+  bool diagonal_feedback = false;  //                              key: solver.diagonal_feedback
+  double mls_fit_radius = 2.0;     // spacings; radius of the MLS fit  key: solver.mls_fit_radius
+  // tau of Eq. A20 (regularized: the damping scale) or the smallest/largest eigenvalue ratio
+  // below which M_b counts as singular (fallback, pseudo_inverse).
+  double mls_eigen_tolerance = 0.1;                             // key: solver.mls_eigen_tolerance
+  MlsSingularMode mls_singular = MlsSingularMode::Regularized;  // key: solver.mls_singular
 };
 
 /// When a run is declared unstable (reported, never thrown).
