@@ -200,8 +200,9 @@ private:
   /// Measured always (the ratio of the two diagonals goes to the step report). With
   /// solver.diagonal_feedback the diagonal becomes min(A_i, A_i - F_i . gsum_i/rho0^2): the
   /// feedback only ever shortens a Jacobi step (where c_bi > 0 makes the true diagonal larger);
-  /// where it would lengthen one (c_bi < 0, ratio < 1; measured down to -1.8 in the cylinder dam
-  /// break) using it made MLS blow up at every time step tried (docs/method_notes.md).
+  /// where it would lengthen one (c_bi < 0, ratio < 1; measured down to -2.8 in the cylinder dam
+  /// break) using it made MLS blow up at 6 of 8 time steps with a 3-spacing fit and at all 8 with
+  /// a 2-spacing one (docs/method_notes.md).
   void extrapolationFeedback()
   {
     const std::size_t n = fluid_.size();
