@@ -325,7 +325,8 @@ TEST(SceneLoader, UnknownEnumValue)
   expectError(kBase + "solver: {boundary_pressure: mirror}\n", "solver.boundary_pressure",
               "unknown value 'mirror' (expected mirroring, mirroring_eq2, sph or mls)");
   expectError(kBase + "viscosity: {model: laminar}\n", "viscosity.model", "expected none, artificial or xsph");
-  expectError(kBase + "solver: {mls_singular: ignore}\n", "solver.mls_singular", "expected fallback, pseudo_inverse or regularized");
+  expectError(kBase + "solver: {mls_singular: ignore}\n", "solver.mls_singular",
+              "expected fallback, pseudo_inverse or regularized");
 }
 
 TEST(SceneLoader, TimeStepIsFixedOrAdaptive)
