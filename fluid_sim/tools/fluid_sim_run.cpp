@@ -157,12 +157,20 @@ std::string vectorText(const fluid_sim::Vec3d& v)
   return text;
 }
 
-void printSummary(const fluid_sim::io::RunSummary& s, const fs::path& out_dir, std::size_t frames)
+void printSummary(const fluid_sim::io::RunSummary& s, const fluid_sim::FillReport& fill, bool relax_on,
+                  const fs::path& out_dir, std::size_t frames)
 {
   std::printf("scene    %s (%s, spacing %g m, %d threads)\n", s.scene.c_str(), s.method.c_str(), s.spacing, s.threads);
   std::printf("fluid    %zu particles (%zu at start, %zu removed at start, %zu left the domain), %zu boundary\n",
               s.final_fluid_particles, s.initial_fluid_particles, s.removed_at_start, s.removed_total,
               s.boundary_particles);
+  // The lattice before t = 0 (scene key fill): points trimmed at walls, and the relaxation.
+  std::printf("fill     %zu lattice points trimmed at walls", fill.trimmed);
+  if (relax_on) std::printf("; largest density error at t = 0 %.3g %%", 100.0 * fill.final_density_error);
+  if (fill.relaxed)
+    std::printf(" (relaxed from %.3g %% in %d pseudo-steps, %.0f ms)", 100.0 * fill.initial_density_error,
+                fill.relax_steps, fill.ms_relax);
+  std::printf("\n");
   std::printf("steps    %zu, %.3f ms/step; simulated %.4g s in %.3g s (real-time factor %.3g)\n", s.steps,
               s.msPerStep(), s.simulated_time, s.wall_time, s.realTimeFactor());
   std::printf("solver   %.2f divergence, %.2f density iterations/step; density error mean %.3g %%, max %.3g %%\n",
@@ -276,7 +284,7 @@ int run(const Options& options)
   summary.status = status;
   summary.reason = reason;
   io::writeSummaryJson((out_dir / "summary.json").string(), summary);
-  printSummary(summary, out_dir, frames);
+  printSummary(summary, sim->fillReport(), sim->scene().fill.relax, out_dir, frames);
 
   if (status == "unstable")
   {

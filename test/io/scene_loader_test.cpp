@@ -38,6 +38,7 @@ solver:
   mls_eigen_tolerance: 0.05
   mls_singular: pseudo_inverse
 viscosity: {model: xsph, coefficient: 0.01, boundary: 0.02}
+fill: {trim: false, relax: false, relax_tolerance: 0.01, relax_max_steps: 20}
 stability: {max_density_error: 0.2, max_cfl: 1.5}
 duration: 2.5
 fluid:
@@ -140,6 +141,10 @@ TEST(SceneLoader, FullExampleParses)
   EXPECT_DOUBLE_EQ(s.stability.max_cfl, 1.5);
   EXPECT_DOUBLE_EQ(s.duration, 2.5);
   EXPECT_DOUBLE_EQ(s.output.frame_interval, 0.02);
+  EXPECT_FALSE(s.fill.trim);
+  EXPECT_FALSE(s.fill.relax);
+  EXPECT_DOUBLE_EQ(s.fill.relax_tolerance, 0.01);
+  EXPECT_EQ(s.fill.relax_max_steps, 20);
 
   ASSERT_EQ(s.fluid.size(), 2u);
   EXPECT_TRUE(s.fluid[0].box.max.isApprox(Vec3d(0.2, 0.1, 0.4)));
@@ -288,6 +293,19 @@ TEST(SceneLoader, WrongType)
   expectError(kBase + "solver: {warm_start: maybe}\n", "solver.warm_start", "expected true or false");
   expectError(kBase + "solver: 3\n", "solver", "expected a map");
   expectError(kBase + "boundaries: {tank: 1}\n", "boundaries", "expected a list");
+}
+
+TEST(SceneLoader, FillKeysAreCheckedAndNamed)
+{
+  const SceneConfig defaults = parseScene(kBase, "scene.yaml");
+  EXPECT_TRUE(defaults.fill.trim);  // on unless turned off
+  EXPECT_TRUE(defaults.fill.relax);
+  expectError(kBase + "fill: {trimm: false}\n", "fill.trimm", "unknown key");
+  expectError(kBase + "fill: {relax: sometimes}\n", "fill.relax", "expected true or false");
+  expectError(kBase + "fill: {relax_tolerance: 0}\n", "fill.relax_tolerance", "must be in (0, 1)");
+  expectError(kBase + "fill: {relax_max_steps: -1}\n", "fill.relax_max_steps", "must be in [0, 10000]");
+  const SceneConfig off = parseScene(kBase, "scene.yaml", {"fill.relax=false"});
+  EXPECT_FALSE(off.fill.relax);
 }
 
 TEST(SceneLoader, NegativeSpacing)

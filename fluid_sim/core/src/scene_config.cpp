@@ -195,6 +195,13 @@ void validate(const SceneConfig& s)
       throw ConfigError(key + ".box", "fluid block lies (partly) outside the domain");
   }
 
+  // fill.relax_tolerance is a relative density error (Eq. A23): at 0 no lattice could meet it, at
+  // 1 or more it would never relax anything.
+  if (!(s.fill.relax_tolerance > 0.0 && s.fill.relax_tolerance < 1.0))
+    throw ConfigError("fill.relax_tolerance", "must be in (0, 1), got " + str(s.fill.relax_tolerance));
+  if (s.fill.relax_max_steps < 0 || s.fill.relax_max_steps > 10000)
+    throw ConfigError("fill.relax_max_steps", "must be in [0, 10000], got " + std::to_string(s.fill.relax_max_steps));
+
   for (std::size_t i = 0; i < s.boundaries.size(); ++i)
   {
     const BoundaryConfig& b = s.boundaries[i];

@@ -10,6 +10,7 @@
 
 #include "fluid_sim/core/bodies.h"
 #include "fluid_sim/core/dfsph_solver.h"
+#include "fluid_sim/core/fill_relaxation.h"
 #include "fluid_sim/core/fluid_constants.h"
 #include "fluid_sim/core/fluid_fill.h"
 #include "fluid_sim/core/fluid_particles.h"
@@ -33,13 +34,21 @@ struct Simulation::Impl
       : scene(validated(cfg))
       , constants(scene)
       , bodies(scene)
-      , removed_at_start(fillFluid(scene, bodies, fluid))
+      , fill(fillFluid(scene, bodies, fluid))
       , initial_count(fluid.size())
       , neighbors(scene, constants.kernel)
       , forces(scene.viscosity, constants)
       , solver(makePressureSolver({scene, constants, fluid, bodies, neighbors}, fluid))
       , dt_next(computeTimeStep(scene.time_step, fluid, constants.gravity, scene.spacing))
   {
+    fill_report.trimmed = fill.trimmed;
+    if (scene.fill.relax)
+    {
+      // Eqs. A22, A23 (fill_relaxation.cpp), with a solver of its own: this one is not touched,
+      // and the velocities, and so dt_next, are the fill's again afterwards.
+      PhaseTimer timer(fill_report.ms_relax);
+      relaxFill(scene, constants, fill.kind, dt_next, fluid, bodies, neighbors, fill_report);
+    }
   }
 
   StepReport step()
@@ -121,8 +130,9 @@ struct Simulation::Impl
   FluidConstants constants;
   BodySet bodies;
   FluidParticles fluid;
-  std::size_t removed_at_start;  // lattice points and explicit particles left out of the initial fill
-  std::size_t initial_count;     // fluid particles at t = 0
+  FillResult fill;            // the initial fill: points left out, which particles are lattice points
+  FillReport fill_report;     // trimming and relaxation before t = 0
+  std::size_t initial_count;  // fluid particles at t = 0
   Neighborhoods neighbors;
   NonPressureForces forces;
   std::unique_ptr<PressureSolver> solver;  // compiled for the scene's boundary pressure method
@@ -265,7 +275,11 @@ std::size_t Simulation::initialFluidParticles() const
 }
 std::size_t Simulation::removedAtStart() const
 {
-  return impl_->removed_at_start;
+  return impl_->fill.dropped;
+}
+const FillReport& Simulation::fillReport() const
+{
+  return impl_->fill_report;
 }
 std::size_t Simulation::removedTotal() const
 {

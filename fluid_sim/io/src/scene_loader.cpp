@@ -153,6 +153,19 @@ StabilityConfig readStability(const Entry& e)
   return s;
 }
 
+/// `fill`: the trimming and relaxation of the box blocks' lattices before t = 0.
+FillConfig readFill(const Entry& e)
+{
+  MapReader r(e);
+  FillConfig f;
+  r.read("trim", f.trim);
+  r.read("relax", f.relax);
+  r.read("relax_tolerance", f.relax_tolerance);
+  r.read("relax_max_steps", f.relax_max_steps);
+  r.finish();
+  return f;
+}
+
 OutputConfig readOutput(const Entry& e)
 {
   MapReader r(e);
@@ -571,6 +584,7 @@ SceneConfig readScene(const YAML::Node& root, LoadContext& ctx)
   r.read("duration", s.duration);
   if (auto e = r.get("fluid"))
     forEachItem(*e, [&](const Entry& item) { s.fluid.push_back(readFluidBlock(item, ctx)); });
+  if (auto e = r.get("fill")) s.fill = readFill(*e);
   if (auto e = r.get("boundaries"))
     forEachItem(*e, [&](const Entry& item) {
       for (auto& b : readBoundary(item, s.boundaries.size(), ctx)) s.boundaries.push_back(std::move(b));

@@ -138,6 +138,27 @@ struct FluidBlockConfig
   std::optional<ExplicitParticles> particles;
 };
 
+/// How the box blocks' lattices are made ready before t = 0, so that water in a curved or tilted
+/// container starts at rest (docs/method.md, Initial fluid; Eqs. A21-A23). Neither touches the
+/// explicit particles of a saved state, and neither changes a lattice that meets only flat walls
+/// aligned with it (no point is too close, and the lattice is at rest density).
+struct FillConfig
+{
+  // Leave out lattice points closer than one spacing to a boundary particle of a solid or a
+  // container (Eq. A21): nearer, the wall's layer alone compresses the point above rest density.
+  bool trim = true;  //                                                key: fill.trim
+  // Relax the lattice (Eq. A22) when it departs from rest density by more than relax_tolerance
+  // (Eq. A23): pseudo-steps of the density solve from rest under gravity, velocities set back to
+  // zero after each, walls held still, until it is within the tolerance and held.
+  bool relax = true;  //                                               key: fill.relax
+  // Relative density error, in (0, 1). Above what a lattice aligned with flat walls starts with
+  // (float rounding, 3e-5, and 1.24 % next to the convex corners of a solid box, hydrostatic_tank's
+  // cube) and the compression settled water keeps under its own weight (0.3 % at 0.5 m depth),
+  // far below a curved wall's cut (15-30 %).
+  double relax_tolerance = 0.02;  //                                   key: fill.relax_tolerance
+  int relax_max_steps = 150;      // pseudo-steps, at most            key: fill.relax_max_steps
+};
+
 struct TimeStepConfig
 {
   bool adaptive = false;  // {cfl: ...} given
@@ -215,6 +236,7 @@ struct SceneConfig
   ViscosityConfig viscosity;
   StabilityConfig stability;
   std::vector<FluidBlockConfig> fluid;     // key: fluid
+  FillConfig fill;                         // key: fill
   std::vector<BoundaryConfig> boundaries;  // key: boundaries
   OutputConfig output;
   double duration = 1.0;  // s, default run length for the runner     key: duration

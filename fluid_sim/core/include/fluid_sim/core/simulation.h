@@ -63,6 +63,21 @@ struct StepReport
   double ms_density = 0.0;
 };
 
+/// What the construction did to the box blocks' lattices before t = 0 (scene key `fill`;
+/// docs/method.md, Initial fluid, Eqs. A21-A23).
+struct FillReport
+{
+  std::size_t trimmed = 0;  // lattice points left out for lying closer than a spacing to a wall (Eq. A21)
+  // Largest relative density error (rho - rho0)/rho0 (Eq. A1) over the lattice particles at
+  // t = 0, before and after the relaxation (equal when it was not needed; both 0 with
+  // fill.relax off or without lattice particles, when it is not computed).
+  double initial_density_error = 0.0;
+  double final_density_error = 0.0;
+  bool relaxed = false;   // the initial error exceeded fill.relax_tolerance: the lattice was relaxed
+  int relax_steps = 0;    // pseudo-steps taken (Eq. A22)
+  double ms_relax = 0.0;  // wall-clock time of the check and the relaxation, ms
+};
+
 /// Read-only view of one boundary body.
 struct BodyInfo
 {
@@ -135,8 +150,11 @@ public:
 
   std::size_t initialFluidParticles() const;  // sampled fluid particles kept at start
   /// Lattice points and explicit particles dropped at start: inside solids, outside containers,
-  /// on open shells, or (explicit particles) outside the domain.
+  /// on open shells, (lattice points) trimmed next to a wall (Eq. A21) or (explicit particles)
+  /// outside the domain.
   std::size_t removedAtStart() const;
+  /// The trimming and relaxation of the lattices before t = 0.
+  const FillReport& fillReport() const;
   std::size_t removedTotal() const;  // particles that left the domain since start
   double particleMass() const;       // kg
 

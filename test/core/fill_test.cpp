@@ -1,0 +1,297 @@
+// The initial fill next to curved and tilted walls (issue 11 §4; docs/method.md, Initial fluid,
+// Eqs. A21-A23): lattice points too close to a wall are trimmed, the lattice is relaxed before
+// t = 0, and water cut by a curved or tilted container starts at rest; flat aligned walls and the
+// particles of a saved state are left exactly as they were.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <vector>
+
+#include "fluid_sim/core/fluid_fill.h"
+#include "fluid_sim/core/simulation.h"
+
+using namespace fluid_sim;
+
+namespace
+{
+/// The lower half of a sphere of radius `radius` (m) filled by a box block at spacing `spacing`
+/// (m); default solver (MLS), no viscosity.
+SceneConfig halfSphere(double radius, double spacing)
+{
+  SceneConfig s;
+  s.spacing = spacing;
+  const double d = radius + 2.0 * spacing;  // m
+  s.domain = {Vec3d(-d, -d, -d), Vec3d(d, d, d)};
+  FluidBlockConfig block;
+  block.box = {Vec3d(-radius, -radius, -radius), Vec3d(radius, radius, 0.0)};
+  s.fluid.push_back(block);
+  BoundaryConfig sphere;
+  sphere.name = "sphere";
+  sphere.type = ShapeType::Sphere;
+  sphere.sphere = {Vec3d::Zero(), radius};
+  sphere.inside = true;
+  s.boundaries.push_back(sphere);
+  return s;
+}
+
+/// A box container 0.3 x 0.2 x 0.3 m, tilted by `degrees` about y, half filled by an axis-aligned
+/// block at spacing 2.5 cm.
+SceneConfig tiltedBox(double degrees)
+{
+  SceneConfig s;
+  s.spacing = 0.025;
+  s.domain = {Vec3d(-0.3, -0.2, -0.3), Vec3d(0.3, 0.2, 0.3)};
+  FluidBlockConfig block;
+  block.box = {Vec3d(-0.25, -0.1, -0.25), Vec3d(0.25, 0.1, 0.0)};
+  s.fluid.push_back(block);
+  BoundaryConfig tank;
+  tank.name = "tank";
+  tank.type = ShapeType::Box;
+  tank.box = {Vec3d(-0.15, -0.1, -0.15), Vec3d(0.15, 0.1, 0.15)};
+  tank.inside = true;
+  tank.pose.rotation = Eigen::Quaterniond(Eigen::AngleAxisd(degrees * M_PI / 180.0, Vec3d::UnitY()));
+  s.boundaries.push_back(tank);
+  return s;
+}
+
+struct Motion
+{
+  double mean_speed = 0.0;       // m/s, over the particles, after the last step
+  double max_speed = 0.0;        // m/s, after the last step
+  double peak_mean_speed = 0.0;  // m/s, largest mean over the steps
+};
+
+Motion run(Simulation& sim, int steps)
+{
+  Motion m;
+  for (int k = 0; k < steps; ++k)
+  {
+    const StepReport rep = sim.step();
+    EXPECT_FALSE(rep.unstable) << rep.reason;
+    double sum = 0.0, top = 0.0;
+    for (const Vec3& v : sim.velocities())
+    {
+      sum += v.norm();
+      top = std::max(top, double(v.norm()));
+    }
+    m.mean_speed = sum / double(sim.numFluidParticles());
+    m.max_speed = top;
+    m.peak_mean_speed = std::max(m.peak_mean_speed, m.mean_speed);
+  }
+  return m;
+}
+
+/// The lattice point nearest to x on the cell-centred lattice of `block` at `spacing`: the
+/// distance (m) of x from it.
+double offLattice(const Vec3& x, const AxisBox& block, double spacing)
+{
+  double d2 = 0.0;
+  for (int a = 0; a < 3; ++a)
+  {
+    const double n = std::floor((block.max[a] - block.min[a]) / spacing + 1e-6);
+    const double start = block.min[a] + 0.5 * (block.max[a] - block.min[a] - n * spacing) + 0.5 * spacing;
+    const double u = (double(x[a]) - start) / spacing;
+    const double r = (u - std::round(u)) * spacing;
+    d2 += r * r;
+  }
+  return std::sqrt(d2);
+}
+}  // namespace
+
+// The half-filled sphere of issue 11 §4, small: radius 0.2 m at 2.5 cm (about 900 particles).
+// Without trim and relaxation the lattice starts 20 % over rest density at the wall and the water
+// collapses from it (mean speed about 0.9 m/s after 0.1 s); with them it starts at rest.
+TEST(StillFill, HalfFilledSphereStartsAtRest)
+{
+  SceneConfig scene = halfSphere(0.2, 0.025);
+  Simulation sim(scene);
+  const FillReport& fill = sim.fillReport();
+  EXPECT_GT(fill.trimmed, 0u);
+  EXPECT_TRUE(fill.relaxed);
+  EXPECT_LE(fill.final_density_error, scene.fill.relax_tolerance);
+  const Motion still = run(sim, 100);  // 0.1 s
+  EXPECT_LT(still.peak_mean_speed, 0.04);
+  EXPECT_LT(still.mean_speed, 0.04);
+  EXPECT_LT(still.max_speed, 0.2);
+
+  // The same sphere with the plain lattice (the fill before issue 11 §4).
+  scene.fill.trim = false;
+  scene.fill.relax = false;
+  Simulation plain(scene);
+  EXPECT_EQ(plain.fillReport().trimmed, 0u);
+  EXPECT_FALSE(plain.fillReport().relaxed);
+  const Motion collapse = run(plain, 100);
+  EXPECT_GT(collapse.mean_speed, 10.0 * still.mean_speed);
+  EXPECT_GT(collapse.max_speed, 1.0);
+  std::printf(
+      "sphere 0.2 m: %zu trimmed, relaxed from %.3g to %.3g in %d pseudo-steps (%.0f ms); after 0.1 s mean "
+      "%.4f (peak %.4f), max %.4f m/s; plain lattice: mean %.4f, max %.4f m/s\n",
+      fill.trimmed, fill.initial_density_error, fill.final_density_error, fill.relax_steps, fill.ms_relax,
+      still.mean_speed, still.peak_mean_speed, still.max_speed, collapse.mean_speed, collapse.max_speed);
+}
+
+// A box container tilted by 25 degrees, filled by an axis-aligned block: its two tilted walls cut
+// the lattice at every distance.
+TEST(StillFill, TiltedBoxStartsAtRest)
+{
+  SceneConfig scene = tiltedBox(25.0);
+  Simulation sim(scene);
+  EXPECT_GT(sim.fillReport().trimmed, 0u);
+  EXPECT_TRUE(sim.fillReport().relaxed);
+  const Motion still = run(sim, 100);
+  EXPECT_LT(still.peak_mean_speed, 0.04);
+  EXPECT_LT(still.max_speed, 0.2);
+
+  scene.fill.trim = false;
+  scene.fill.relax = false;
+  Simulation plain(scene);
+  const Motion collapse = run(plain, 100);
+  EXPECT_GT(collapse.mean_speed, 5.0 * still.mean_speed);
+  std::printf(
+      "tilted box: %zu trimmed, %d pseudo-steps; after 0.1 s mean %.4f (peak %.4f), max %.4f m/s; plain "
+      "lattice: mean %.4f, max %.4f m/s\n",
+      sim.fillReport().trimmed, sim.fillReport().relax_steps, still.mean_speed, still.peak_mean_speed, still.max_speed,
+      collapse.mean_speed, collapse.max_speed);
+}
+
+// fill.trim and fill.relax turn each part off: without either the fill is the plain lattice.
+TEST(StillFill, KeysTurnItOff)
+{
+  SceneConfig scene = halfSphere(0.2, 0.025);
+  scene.fill.trim = false;
+  scene.fill.relax = false;
+  Simulation plain(scene);
+  const std::size_t lattice = plain.numFluidParticles();
+  for (const Vec3& x : plain.positions()) EXPECT_LT(offLattice(x, scene.fluid[0].box, scene.spacing), 1e-6);
+
+  scene.fill.trim = true;  // trimmed, not relaxed: fewer points, all on the lattice
+  Simulation trimmed(scene);
+  EXPECT_GT(trimmed.fillReport().trimmed, 0u);
+  EXPECT_EQ(trimmed.numFluidParticles() + trimmed.fillReport().trimmed, lattice);
+  EXPECT_EQ(trimmed.removedAtStart(), plain.removedAtStart() + trimmed.fillReport().trimmed);
+  EXPECT_FALSE(trimmed.fillReport().relaxed);
+  for (const Vec3& x : trimmed.positions()) EXPECT_LT(offLattice(x, scene.fluid[0].box, scene.spacing), 1e-6);
+
+  scene.fill.trim = false;  // relaxed, not trimmed: every point kept, moved off the lattice
+  scene.fill.relax = true;
+  Simulation relaxed(scene);
+  EXPECT_EQ(relaxed.fillReport().trimmed, 0u);
+  EXPECT_EQ(relaxed.numFluidParticles(), lattice);
+  EXPECT_TRUE(relaxed.fillReport().relaxed);
+  EXPECT_GT(relaxed.fillReport().initial_density_error, 0.1);  // the plain lattice at the wall
+  double moved = 0.0;
+  for (const Vec3& x : relaxed.positions()) moved = std::max(moved, offLattice(x, scene.fluid[0].box, scene.spacing));
+  EXPECT_GT(moved, 0.1 * scene.spacing);
+  for (const Vec3& v : relaxed.velocities()) EXPECT_TRUE(v.isZero(0));  // starts at rest
+}
+
+// A lattice that meets only flat walls aligned with it (a box tank, a submerged cube) is neither
+// trimmed nor relaxed: the fill is the lattice, bit for bit.
+TEST(StillFill, AlignedBoxTankIsLeftAsItIs)
+{
+  SceneConfig scene;
+  scene.spacing = 0.02;
+  scene.domain = {Vec3d(-0.1, -0.1, -0.1), Vec3d(0.4, 0.4, 0.5)};
+  FluidBlockConfig block;
+  block.box = {Vec3d(0, 0, 0), Vec3d(0.3, 0.3, 0.2)};
+  scene.fluid.push_back(block);
+  BoundaryConfig tank;
+  tank.name = "tank";
+  tank.box = {Vec3d(0, 0, 0), Vec3d(0.3, 0.3, 0.4)};
+  tank.inside = true;
+  scene.boundaries.push_back(tank);
+  BoundaryConfig cube;
+  cube.name = "cube";
+  cube.box = {Vec3d(0.1, 0.1, 0.06), Vec3d(0.2, 0.2, 0.16)};
+  scene.boundaries.push_back(cube);
+
+  Simulation sim(scene);
+  EXPECT_EQ(sim.fillReport().trimmed, 0u);
+  EXPECT_FALSE(sim.fillReport().relaxed);
+  // 1.24 % next to the cube's convex corners, float rounding elsewhere.
+  EXPECT_LT(sim.fillReport().initial_density_error, scene.fill.relax_tolerance);
+  scene.fill.trim = false;
+  scene.fill.relax = false;
+  Simulation plain(scene);
+  ASSERT_EQ(sim.numFluidParticles(), plain.numFluidParticles());
+  for (std::size_t i = 0; i < sim.numFluidParticles(); ++i) EXPECT_EQ(sim.positions()[i], plain.positions()[i]);
+}
+
+// The particles of a saved state are never trimmed or relaxed, even where a lattice point would be
+// (here: the plain lattice of the half sphere, 20 % over rest density at the wall, given as
+// explicit particles); next to a box block, which is relaxed, they keep their positions too.
+TEST(StillFill, SavedStateParticlesAreUntouched)
+{
+  SceneConfig scene = halfSphere(0.2, 0.025);
+  scene.fill.trim = false;
+  scene.fill.relax = false;
+  std::vector<Vec3d> positions, velocities;
+  {
+    Simulation plain(scene);
+    for (const Vec3& x : plain.positions()) positions.push_back(x.cast<double>());
+  }
+  for (std::size_t k = 0; k < positions.size(); ++k) velocities.push_back(Vec3d(0.01 * double(k % 7), 0, -0.02));
+
+  SceneConfig saved = halfSphere(0.2, 0.025);  // trim and relax on
+  saved.fluid[0].box = AxisBox();
+  saved.fluid[0].particles = ExplicitParticles{positions, velocities};
+  Simulation sim(saved);
+  EXPECT_EQ(sim.fillReport().trimmed, 0u);
+  EXPECT_FALSE(sim.fillReport().relaxed);
+  ASSERT_EQ(sim.numFluidParticles(), positions.size());
+  for (std::size_t k = 0; k < positions.size(); ++k)
+  {
+    EXPECT_EQ(sim.positions()[k], positions[k].cast<Real>());
+    EXPECT_EQ(sim.velocities()[k], velocities[k].cast<Real>());
+  }
+
+  // Mixed: the saved state fills the bottom, a box block above it is cut by the sphere and relaxed.
+  SceneConfig mixed = saved;
+  std::vector<Vec3d> low, low_v;
+  for (std::size_t k = 0; k < positions.size(); ++k)
+    if (positions[k].z() < -0.1)
+    {
+      low.push_back(positions[k]);
+      low_v.push_back(velocities[k]);
+    }
+  mixed.fluid[0].particles = ExplicitParticles{low, low_v};
+  FluidBlockConfig upper;
+  upper.box = {Vec3d(-0.2, -0.2, -0.1), Vec3d(0.2, 0.2, 0.0)};
+  mixed.fluid.push_back(upper);
+  Simulation both(mixed);
+  EXPECT_GT(both.fillReport().trimmed, 0u);
+  EXPECT_TRUE(both.fillReport().relaxed);
+  for (std::size_t k = 0; k < low.size(); ++k)
+  {
+    EXPECT_EQ(both.positions()[k], low[k].cast<Real>());
+    EXPECT_EQ(both.velocities()[k], low_v[k].cast<Real>());
+  }
+}
+
+TEST(StillFill, BadValuesNameTheirKey)
+{
+  SceneConfig scene = halfSphere(0.2, 0.05);
+  scene.fill.relax_tolerance = 0.0;
+  try
+  {
+    Simulation sim(scene);
+    ADD_FAILURE() << "no error";
+  }
+  catch (const ConfigError& e)
+  {
+    EXPECT_EQ(e.key(), "fill.relax_tolerance");
+  }
+  scene.fill.relax_tolerance = 0.005;
+  scene.fill.relax_max_steps = -1;
+  try
+  {
+    Simulation sim(scene);
+    ADD_FAILURE() << "no error";
+  }
+  catch (const ConfigError& e)
+  {
+    EXPECT_EQ(e.key(), "fill.relax_max_steps");
+  }
+}
