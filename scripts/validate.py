@@ -14,7 +14,8 @@ plots to docs/validation/ and the report docs/validation.md.
 
 Cases: 1 Table 1 of the paper (cylinder dam break, time step sweep), 2 rotating sphere at rest,
 3 deep water column, 4 dam break against Martin & Moyce (1952), 5 speed against error,
-6 largest stable time step on hard cases (bisection). Needs numpy and matplotlib (Debian's
+6 largest stable time step on hard cases (bisection), 7 Archimedes on a fixed submerged cube
+(--extra-runner LABEL=PATH adds other builds of the runner to case 7). Needs numpy and matplotlib (Debian's
 python3-numpy, python3-matplotlib); no network.
 """
 import argparse
@@ -51,6 +52,8 @@ KNOWN = {
     (6, "deep", "mirroring"): "mirroring blows up in the deep column's start at every dt (known mirroring problem)",
     (2, "mls"): "not reproduced: the turning wall spins the water up with MLS too, at 60-80 % of SPH's rate "
                 "(docs/validation.md, case 2)",
+    (7, "mirroring"): "single-term mirroring's cube reads 0.926 rho0 g V; its force follows the boundary volume "
+                      "factor gamma of Eq. A3 (docs/method_notes.md, Known problems)",
     (3, "mirroring"): "mirroring does not come to rest and reads ~15 % high (docs/method_notes.md); in the deep "
                       "column it blows up at 1 cm",
 }
@@ -144,15 +147,16 @@ class Suite:
         os.makedirs(self.outdir, exist_ok=True)
 
     # -- running -------------------------------------------------------------------------------
-    def _run_raw(self, key, scene, sets, duration):
+    def _run_raw(self, key, scene, sets, duration, runner=None):
+        runner = runner or self.runner
         out = os.path.join(self.work, key)
-        args = [self.runner, os.path.join(SCENES, scene), "--out", out, "--threads", str(self.opts.threads)]
+        args = [runner, os.path.join(SCENES, scene), "--out", out, "--threads", str(self.opts.threads)]
         if duration is not None:
             args += ["--duration", repr(float(duration))]
         for k, v in sets.items():
             args += ["--set", "%s=%s" % (k, v)]
         stamp = os.path.join(out, "validate_args.json")
-        ident = [file_digest(os.path.join(SCENES, scene)), os.path.getmtime(self.runner)]
+        ident = [file_digest(os.path.join(SCENES, scene)), os.path.getmtime(runner)]
         if self.opts.reuse and os.path.exists(stamp):
             old = json.load(open(stamp))
             if old.get("args")[1:] == args[1:] and old.get("ident") == ident and os.path.exists(os.path.join(out, "summary.json")):
@@ -171,7 +175,7 @@ class Suite:
             print("  %-58s %-9s %6.1f s" % (key, run.status, wall), flush=True)
         return run
 
-    def _run_once(self, key, scene, sets, duration):
+    def _run_once(self, key, scene, sets, duration, runner=None):
         """A run asked for twice in one invocation (cases 4 and 5 share the dam breaks) runs once."""
         with self.lock:
             fut = self.memo.get(key)
@@ -183,7 +187,7 @@ class Suite:
         if not mine:
             return fut.result()
         try:
-            run = self._run_raw(key, scene, sets, duration)
+            run = self._run_raw(key, scene, sets, duration, runner)
         except BaseException as e:
             fut.set_exception(e)
             raise
@@ -1136,6 +1140,74 @@ def case6(S):
 
 
 # ----------------------------------------------------------------------------------------------
+# Case 7: Archimedes on a fixed submerged cube
+# ----------------------------------------------------------------------------------------------
+def cube_sets(method, quick):
+    sets = {"solver.boundary_pressure": method}
+    if quick:
+        # The ctest Buoyancy test's tank: 15 x 15 spacings, 22 deep, the cube 4 spacings from the
+        # side walls and 6 above the floor.
+        s = 1.0 / 70.0
+        sets.update({"fluid[0].box.max": "[%r,%r,%r]" % (15 * s, 15 * s, 22 * s),
+                     "boundaries[0].box.max": "[%r,%r,%r]" % (15 * s, 15 * s, 22 * s + 0.2),
+                     "boundaries[1].box.min": "[%r,%r,%r]" % (4 * s, 4 * s, 6 * s),
+                     "boundaries[1].box.max": "[%r,%r,%r]" % (11 * s, 11 * s, 13 * s)})
+    return sets
+
+
+def case7(S):
+    side = 0.1
+    archimedes = RHO0 * G * side ** 3
+    duration = 1.0 if S.quick else 2.0
+    builds = [("this build", S.runner)] + list(S.opts.extra_runner or [])
+    specs, keys = [], []
+    for label, runner in builds:
+        tag = "" if runner == S.runner else "_" + "".join(c if c.isalnum() else "_" for c in label)
+        for m in METHODS:
+            keys.append((label, m))
+            specs.append(("case7/%s%s" % (m, tag), "submerged_cube.yaml", cube_sets(m, S.quick), duration, runner))
+    futures = [S.pool.submit(S._run, k, sc, st, d, r) for k, sc, st, d, r in specs]
+    runs = dict(zip(keys, [f.result() for f in futures]))
+    res = {}
+    for key, run in runs.items():
+        r = dict(status=run.status, ratio=float("nan"), momentum=float("nan"), sideways=float("nan"),
+                 n=run.summary.get("fluid_particles", {}).get("initial", 0))
+        if run.ok:
+            s = run.summary["spacing"]
+            weight = r["n"] * RHO0 * s ** 3 * G
+            cube, tank = run.body_force("cube"), run.body_force("tank")
+            r["ratio"] = float(cube[2] / archimedes)
+            r["sideways"] = float(np.hypot(cube[0], cube[1]) / archimedes)
+            r["momentum"] = float(-(cube[2] + tank[2]) / weight)  # both push down on them: -W
+        res[key] = r
+    S.write_csv("case7_submerged_cube.csv", ["build", "method", "status", "fluid_particles", "cube_force_over_rho0_g_V",
+                                             "cube_sideways_over_rho0_g_V", "tank_plus_cube_over_weight"],
+                [[b, m, res[(b, m)]["status"], res[(b, m)]["n"], res[(b, m)]["ratio"], res[(b, m)]["sideways"],
+                  res[(b, m)]["momentum"]] for b, m in keys])
+    for b, m in keys:
+        where = "" if b == "this build" else " (%s)" % b
+        S.check(7, "%s%s: cube force = rho0 g V within 2 %%" % (m, where), abs(res[(b, m)]["ratio"] - 1) < 0.02,
+                "F/(rho0 g V) = %s" % f3(res[(b, m)]["ratio"], 4), known=KNOWN.get((7, m)))
+        S.check(7, "%s%s: tank + cube = water weight within 1 %%" % (m, where),
+                abs(res[(b, m)]["momentum"] - 1) < 0.01, "%s" % f3(res[(b, m)]["momentum"], 5))
+    md = ["## 7. Archimedes: a fixed submerged cube\n"]
+    md.append("A cube %g m a side (7 spacings of 1/70 m), its faces on the fluid lattice, fixed in %s "
+              "(%d fluid particles); dt 1 ms, XSPH 0.01, %g s simulated. Forces: the runner's mean over the "
+              "last tenth of the run (summary.json). The cube should feel rho0 g V = %.3f N upwards; tank and "
+              "cube together carry the water's weight whatever the method (momentum balance at rest), so the "
+              "second column separates a wrong pressure field from water that has not come to rest. "
+              "Builds: %s.\n" % (side, "the ctest Buoyancy test's tank (0.21 x 0.21 m, 0.31 m deep)" if S.quick
+                                 else "a 0.3 x 0.3 m tank filled 0.4 m deep", res[keys[-1]]["n"], duration,
+                                 archimedes, "; ".join("%s (`%s`)" % (b, os.path.relpath(r, ROOT)) for b, r in builds)))
+    md.append(md_table(["build", "method", "status", "F / (rho0 g V)", "sideways / (rho0 g V)",
+                        "(tank + cube) / weight"],
+                       [[b, m, res[(b, m)]["status"], f3(res[(b, m)]["ratio"], 4), f3(res[(b, m)]["sideways"], 2),
+                         f3(res[(b, m)]["momentum"], 5)] for b, m in keys]))
+    md.append("\nCSV: [case7_submerged_cube.csv](%s).\n" % S.rel("case7_submerged_cube.csv"))
+    return {"res": res, "md": "\n".join(md)}
+
+
+# ----------------------------------------------------------------------------------------------
 # Report
 # ----------------------------------------------------------------------------------------------
 def machine():
@@ -1168,10 +1240,17 @@ def header(S, elapsed):
     return "\n".join(lines) + "\n"
 
 
+def extra_runner(text):
+    label, sep, path = text.partition("=")
+    if not sep or not label or not os.access(path, os.X_OK):
+        raise argparse.ArgumentTypeError("expected LABEL=PATH of an executable runner, got %r" % text)
+    return (label, os.path.abspath(path))
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--quick", action="store_true", help="the small CI versions of the cases")
-    ap.add_argument("--case", type=int, action="append", choices=range(1, 7), help="run only this case (repeatable)")
+    ap.add_argument("--case", type=int, action="append", choices=range(1, 8), help="run only this case (repeatable)")
     ap.add_argument("--runner", default=os.path.join(ROOT, "build", "fluid_sim_run"))
     ap.add_argument("--jobs", type=int, default=os.cpu_count() or 1, help="runs at a time")
     ap.add_argument("--threads", type=int, default=1, help="threads per run")
@@ -1181,6 +1260,8 @@ def main():
     ap.add_argument("--check", action="store_true", help="exit 1 when a physical check fails")
     ap.add_argument("--reuse", action="store_true", help="reuse finished runs with the same arguments")
     ap.add_argument("--nice", type=int, default=None, help="run the runner under nice -n N")
+    ap.add_argument("--extra-runner", action="append", type=extra_runner, metavar="LABEL=PATH",
+                    help="case 7 also runs with this runner (another build: -march=haswell, portable); repeatable")
     opts = ap.parse_args()
     if opts.work is None:
         opts.work = os.path.join(ROOT, "out", "validation-quick" if opts.quick else "validation")
@@ -1194,7 +1275,7 @@ def main():
         return 2
     # Runs are limited to --jobs at a time by a semaphore; the pool itself is larger because the
     # bisections of case 6 start their trial runs from pool threads.
-    cases = sorted(set(opts.case or range(1, 7)))
+    cases = sorted(set(opts.case or range(1, 8)))
     S = Suite(opts)
     S.pool = concurrent.futures.ThreadPoolExecutor(max_workers=opts.jobs + 16)
     run_sem = threading.Semaphore(opts.jobs)
@@ -1205,7 +1286,7 @@ def main():
             return inner(*a, **k)
     S._run_raw = limited
     S._run = S._run_once
-    funcs = {1: case1, 2: case2, 3: case3, 4: case4, 5: case5, 6: case6}
+    funcs = {1: case1, 2: case2, 3: case3, 4: case4, 5: case5, 6: case6, 7: case7}
     t0 = time.time()
     results = {}
     for c in cases:
@@ -1231,7 +1312,7 @@ def main():
     if os.path.exists(intro) and not opts.quick:
         parts.append(open(intro).read())
     all_checks = []
-    for c in range(1, 7):
+    for c in range(1, 8):
         p = os.path.join(S.outdir, "case%d_checks.json" % c)
         if os.path.exists(p):
             all_checks += json.load(open(p))
@@ -1240,7 +1321,7 @@ def main():
     parts.append(md_table(["case", "check", "result", "measured"],
                           [[c[0], c[1], "pass" if c[2] else ("known failure: " + c[4] if c[4] else "**FAIL**"),
                             c[3]] for c in all_checks]))
-    for c in range(1, 7):
+    for c in range(1, 8):
         p = os.path.join(S.outdir, "case%d.md" % c)
         if os.path.exists(p):
             parts.append(open(p).read())
