@@ -153,7 +153,7 @@ private:
     padVelocities();
     const Real w0 = in_.constants.kernel.W0();
     const std::vector<Vec3>& xb = bodies_.x;
-    const std::vector<Vec3>& vb = bodies_.v;
+    const std::vector<Vec3>& vb = rateWallVelocities();
     const std::vector<Real>& Vb = bodies_.volume;
     parallelFor(n, [&](std::size_t i) {
       const Vec3 xi = fluid_.x[i], vi = fluid_.v[i];
@@ -225,6 +225,18 @@ private:
     }
   }
 
+  /// The boundary velocities v_b of the density rate (Eq. A2), m/s: the bodies' own, or zeros
+  /// with the diagnostic solver.wall_velocity_in_density_rate = false, which takes the wall's
+  /// motion out of the density rate only (positions, forces and p_b stay as they are). For a wall
+  /// sliding along itself (a container turning about its axis) the continuous term is zero and
+  /// what the discrete one adds is the drag under study (docs/method_notes.md, turning container).
+  const std::vector<Vec3>& rateWallVelocities()
+  {
+    if (scene_.solver.wall_velocity_in_density_rate) return bodies_.v;
+    still_wall_.assign(bodies_.v.size(), Vec3::Zero());
+    return still_wall_;
+  }
+
   /// x4 = x padded: a neighbour's vector is then one packed load, and a subtraction and a
   /// multiply-add are one instruction each instead of three (m).
   void padPositions()
@@ -245,7 +257,7 @@ private:
   {
     padVelocities();
     const std::vector<Vec3>& xb = bodies_.x;
-    const std::vector<Vec3>& vb = bodies_.v;
+    const std::vector<Vec3>& vb = rateWallVelocities();
     const std::vector<Real>& Vb = bodies_.volume;
     parallelFor(fluid_.size(), [&](std::size_t i) {
       const Vec3 xi = fluid_.x[i], vi = fluid_.v[i];
@@ -434,6 +446,7 @@ private:
   std::vector<float> density_residual_max_;  // per density-solve iteration, the largest of abs_residual_
   Vec4Array x4_, v4_, a4_;                   // m, m/s, m/s^2: x, v and a^p padded to 4 components
   std::vector<Vec3> wall_dv_;                // m/s, this step's velocity change from the p_b wall term
+  std::vector<Vec3> still_wall_;             // m/s, zeros (diagnostic: walls still in Eq. A2)
 };
 }  // namespace
 

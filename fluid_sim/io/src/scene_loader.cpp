@@ -122,6 +122,7 @@ SolverConfig readSolver(const Entry& e)
   r.read("clamp_boundary_pressure", s.clamp_boundary_pressure);
   r.read("limit_boundary_pressure", s.limit_boundary_pressure);
   r.read("diagonal_feedback", s.diagonal_feedback);
+  r.read("wall_velocity_in_density_rate", s.wall_velocity_in_density_rate);
   r.read("mls_fit_radius", s.mls_fit_radius);
   r.read("mls_eigen_tolerance", s.mls_eigen_tolerance);
   if (auto m = r.get("mls_singular"))

@@ -205,7 +205,11 @@ struct SolverConfig
   // Include in the Jacobi diagonal A_i (Eq. A4) the dependence of the extrapolated p_b (sph,
   // mls) on p_i through its coefficient c_bi (Eq. A4b). Mirroring's p_b = p_i always has it.
   bool diagonal_feedback = false;  //                              key: solver.diagonal_feedback
-  double mls_fit_radius = 2.0;     // spacings; radius of the MLS fit  key: solver.mls_fit_radius
+  // Diagnostic: false leaves the boundary velocities v_b out of the density rate (Eq. A2), as if
+  // every wall stood still there (its positions and forces still move). Only meaningful for a
+  // wall sliding along itself, to split a turning container's drag on the water.
+  bool wall_velocity_in_density_rate = true;  //       key: solver.wall_velocity_in_density_rate
+  double mls_fit_radius = 2.0;                // spacings; radius of the MLS fit  key: solver.mls_fit_radius
   // tau of Eq. A20 (regularized: the damping scale) or the smallest/largest eigenvalue ratio
   // below which M_b counts as singular (fallback, pseudo_inverse).
   double mls_eigen_tolerance = 0.1;                             // key: solver.mls_eigen_tolerance
