@@ -530,3 +530,30 @@ TEST(Simulation, WallVelocityOutOfTheDensityRateChangesOnlyWallsThatMove)
   for (std::size_t i = 0; i < with.size(); ++i) diff = std::max(diff, double((with[i] - without[i]).norm()));
   EXPECT_GT(diff, 1e-7) << "m, largest position difference after 10 steps";
 }
+
+TEST(Simulation, MovingBodiesAreSampledAtHalfTheSpacingByDefault)
+{
+  // The same box still, turning, posed by the caller, and turning with sample_spacing 0 (the
+  // scene's spacing): auto samples a body that can move at half the spacing, about 4 times as
+  // many particles on its surface.
+  const auto count = [](const Vec3d& w, bool external, double sample_spacing) {
+    SceneConfig s = smallScene();
+    BoundaryConfig paddle;
+    paddle.name = "paddle";
+    paddle.type = ShapeType::Box;
+    paddle.box = {Vec3d(0.3, 0.0, 0.0), Vec3d(0.5, 0.2, 0.2)};
+    paddle.motion.angular_velocity = w;
+    paddle.externally_posed = external;
+    paddle.sample_spacing = sample_spacing;
+    s.boundaries.push_back(paddle);
+    return Simulation(s).boundaryPositions().size();
+  };
+  const std::size_t still = count(Vec3d::Zero(), false, kAutoSampleSpacing);
+  const std::size_t turning = count(Vec3d(0, 0, 1), false, kAutoSampleSpacing);
+  const std::size_t posed = count(Vec3d::Zero(), true, kAutoSampleSpacing);
+  const std::size_t coarse = count(Vec3d(0, 0, 1), false, 0.0);
+  EXPECT_EQ(coarse, still);
+  EXPECT_EQ(posed, turning);
+  EXPECT_GT(double(turning), 3.0 * double(still));
+  EXPECT_LT(double(turning), 5.0 * double(still));
+}

@@ -279,6 +279,26 @@ TEST(SceneLoader, MotionStartAndRamp)
               "boundaries[1].motion.strat", "unknown key (did you mean 'start'?)");
 }
 
+TEST(SceneLoader, SampleSpacingAutoZeroOrGiven)
+{
+  // Default and `auto`: half the spacing for a body that moves, the spacing for a still one.
+  const SceneConfig a = parseScene(kBase + kBoundaries + "    motion: {angular_velocity: [0, 0, 1]}\n", "scene.yaml");
+  EXPECT_EQ(a.boundaries[0].sample_spacing, kAutoSampleSpacing);
+  EXPECT_DOUBLE_EQ(sampleSpacing(a.boundaries[0], a.spacing), a.spacing);        // the still tank
+  EXPECT_DOUBLE_EQ(sampleSpacing(a.boundaries[1], a.spacing), 0.5 * a.spacing);  // the turning ball
+  const SceneConfig b = parseScene(
+      kBase + kBoundaries + "    motion: {angular_velocity: [0, 0, 1]}\n    sample_spacing: auto\n", "scene.yaml");
+  EXPECT_DOUBLE_EQ(sampleSpacing(b.boundaries[1], b.spacing), 0.5 * b.spacing);
+  // 0: the scene's spacing even for a moving body; a number: that.
+  const SceneConfig c = parseScene(
+      kBase + kBoundaries + "    motion: {angular_velocity: [0, 0, 1]}\n    sample_spacing: 0\n", "scene.yaml");
+  EXPECT_DOUBLE_EQ(sampleSpacing(c.boundaries[1], c.spacing), c.spacing);
+  const SceneConfig d = parseScene(kBase + kBoundaries + "    sample_spacing: 0.01\n", "scene.yaml");
+  EXPECT_DOUBLE_EQ(sampleSpacing(d.boundaries[1], d.spacing), 0.01);
+  expectError(kBase + kBoundaries + "    sample_spacing: fine\n", "boundaries[1].sample_spacing", "");
+  expectError(kBase + kBoundaries + "    sample_spacing: -1\n", "boundaries[1].sample_spacing", "must be >= 0 or auto");
+}
+
 TEST(SceneLoader, DuplicateKey)
 {
   expectError(kBase + "rest_density: 1000\nrest_density: 998\n", "rest_density", "duplicate key");

@@ -66,7 +66,7 @@ BodySet::BodySet(const SceneConfig& scene)
     Body body;
     body.config = cfg;
     if (body.config.type == ShapeType::Cylinder) body.config.cylinder.axis.normalize();
-    const double sample_spacing = cfg.sample_spacing > 0.0 ? cfg.sample_spacing : scene.spacing;  // m
+    const double sample_spacing = sampleSpacing(cfg, scene.spacing);  // m
     body.local = sampleBoundary(body.config, sample_spacing, scene.spacing);
     body.offset = offset;
     body.initial_pose = cfg.pose;

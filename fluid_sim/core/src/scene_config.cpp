@@ -123,6 +123,18 @@ bool boxInside(const AxisBox& inner, const AxisBox& outer)
 }
 }  // namespace
 
+bool canMove(const BoundaryConfig& b)
+{
+  return b.externally_posed || b.motion.linear_velocity != Vec3d::Zero() || b.motion.angular_velocity != Vec3d::Zero();
+}
+
+double sampleSpacing(const BoundaryConfig& b, double spacing)
+{
+  if (b.sample_spacing > 0.0) return b.sample_spacing;
+  if (b.sample_spacing == kAutoSampleSpacing && canMove(b)) return 0.5 * spacing;
+  return spacing;
+}
+
 void validate(const SceneConfig& s)
 {
   requirePositive(s.spacing, "spacing");
@@ -241,11 +253,11 @@ void validate(const SceneConfig& s)
     requireFinite(b.motion.linear_velocity, key + ".motion.linear_velocity");
     requireNonNegative(b.motion.start, key + ".motion.start");
     requireNonNegative(b.motion.ramp, key + ".motion.ramp");
-    requireNonNegative(b.sample_spacing, key + ".sample_spacing");
+    if (b.sample_spacing != kAutoSampleSpacing) requireNonNegative(b.sample_spacing, key + ".sample_spacing");
     if (b.sample_spacing > s.spacing)
       throw ConfigError(key + ".sample_spacing", "must not exceed the scene spacing " + str(s.spacing));
     // Refuse a body too large for its spacing before anything is sampled.
-    const double ss = b.sample_spacing > 0.0 ? b.sample_spacing : s.spacing;  // m
+    const double ss = sampleSpacing(b, s.spacing);  // m
     const double estimate = estimateBoundaryParticles(b, ss, s.spacing);
     if (!(estimate <= double(s.max_boundary_particles)))
       throw ConfigError(key, "'" + b.name + "' would need about " +

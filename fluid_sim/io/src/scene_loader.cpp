@@ -380,8 +380,8 @@ MotionConfig readMotion(const Entry& e)
 /// Refuses a body whose sampling would exceed the particle budget, naming the scene entry.
 void checkBudget(const Entry& e, const BoundaryConfig& b, const LoadContext& ctx)
 {
-  const double ss = b.sample_spacing > 0.0 ? b.sample_spacing : ctx.spacing;  // m
-  if (!(ss > 0.0)) return;                                                    // validate() reports the spacing
+  const double ss = sampleSpacing(b, ctx.spacing);  // m
+  if (!(ss > 0.0)) return;                          // validate() reports the spacing
   const double estimate = estimateBoundaryParticles(b, ss, ctx.spacing);
   if (!(estimate <= double(ctx.max_boundary_particles)))
     throw ConfigError(
@@ -504,7 +504,18 @@ std::vector<BoundaryConfig> readBoundary(const Entry& e, std::size_t index, cons
   r.read("inside", b.inside);
   if (auto pose = r.get("pose")) b.pose = readPose(*pose);
   if (auto motion = r.get("motion")) b.motion = readMotion(*motion);
-  r.read("sample_spacing", b.sample_spacing);
+  if (auto ss = r.get("sample_spacing"))
+  {
+    if (ss->node.IsScalar() && ss->node.Scalar() == "auto")
+      b.sample_spacing = kAutoSampleSpacing;
+    else
+    {
+      readInto(*ss, b.sample_spacing);
+      // A negative number would read as auto's marker: refuse it here, with the file's line.
+      if (!(b.sample_spacing >= 0.0))
+        throw ConfigError(ss->key, "must be >= 0 or auto, got " + std::to_string(b.sample_spacing) + lineOf(ss->node));
+    }
+  }
   r.read("external", b.externally_posed);
   bool offset_given = false;
   if (auto offset = r.get("offset"))
@@ -520,7 +531,11 @@ std::vector<BoundaryConfig> readBoundary(const Entry& e, std::size_t index, cons
       throw ConfigError(name->key,
                         "a urdf entry's bodies are named after its links; give no name" + lineOf(name->node));
     r.finish();
-    const double finest = b.sample_spacing > 0.0 ? std::min(b.sample_spacing, ctx.spacing) : ctx.spacing;
+    // The links' motion is not known here (external in the node): facets as fine as the finest
+    // sampling any of them may get.
+    const double finest = b.sample_spacing > 0.0                   ? std::min(b.sample_spacing, ctx.spacing)
+                          : b.sample_spacing == kAutoSampleSpacing ? 0.5 * ctx.spacing
+                                                                   : ctx.spacing;
     std::vector<BoundaryConfig> bodies = readUrdf(shape, b, finest, ctx);
     for (const auto& body : bodies) checkBudget(e, body, ctx);
     return bodies;

@@ -115,8 +115,25 @@ struct BoundaryConfig
   Pose pose;                      // body frame -> world at t = 0 (key: pose {xyz, rpy})
   MotionConfig motion;            // key: motion
   bool externally_posed = false;  // the caller poses it every step (ROS node through tf)
-  double sample_spacing = 0.0;    // m, 0 = scene spacing; may be finer          key: sample_spacing
+  // m, boundary particle spacing; kAutoSampleSpacing (the default, key value `auto`): see
+  // sampleSpacing(); 0 = the scene spacing; may be finer, never coarser.     key: sample_spacing
+  double sample_spacing = -1.0;
 };
+
+/// `sample_spacing: auto`.
+constexpr double kAutoSampleSpacing = -1.0;
+
+/// Whether a body can move: scripted motion with a velocity, or posed by the caller every step.
+bool canMove(const BoundaryConfig& b);
+
+/// The spacing a body is sampled at, m. Given (> 0): that; 0: the scene's; auto: half the
+/// scene's for a body that can move, the scene's for one that cannot. A wall sampled at the fluid
+/// spacing is a row of bumps one spacing apart that the water's first layer sits between; a wall
+/// that slides along the water drags it along by them (a cylinder turning under still water:
+/// 10-30 % of solid-body rotation per second at R/s 10-20 for every boundary method; sampled at
+/// half the spacing, below 0.2 %/s; docs/method_notes.md, Turning container). A still wall has
+/// nothing to slide, and keeps the coarser, cheaper sampling.
+double sampleSpacing(const BoundaryConfig& b, double spacing);
 
 /// Fluid particles given one by one instead of as a lattice: the state of an earlier run (key
 /// particles {file: FILE}, a PLY frame the runner wrote). Each particle stands for the mass of a
