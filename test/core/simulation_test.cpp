@@ -531,11 +531,11 @@ TEST(Simulation, WallVelocityOutOfTheDensityRateChangesOnlyWallsThatMove)
   EXPECT_GT(diff, 1e-7) << "m, largest position difference after 10 steps";
 }
 
-TEST(Simulation, MovingBodiesAreSampledAtHalfTheSpacingByDefault)
+TEST(Simulation, AutoSamplesMovingBodiesAtHalfTheSpacing)
 {
-  // The same box still, turning, posed by the caller, and turning with sample_spacing 0 (the
-  // scene's spacing): auto samples a body that can move at half the spacing, about 4 times as
-  // many particles on its surface.
+  // The same box with sample_spacing auto still, turning, posed by the caller, and turning with
+  // sample_spacing 0 (the default, the scene's spacing): auto samples a body that can move at
+  // half the spacing, about 4 times as many particles on its surface.
   const auto count = [](const Vec3d& w, bool external, double sample_spacing) {
     SceneConfig s = smallScene();
     BoundaryConfig paddle;

@@ -281,15 +281,18 @@ TEST(SceneLoader, MotionStartAndRamp)
 
 TEST(SceneLoader, SampleSpacingAutoZeroOrGiven)
 {
-  // Default and `auto`: half the spacing for a body that moves, the spacing for a still one.
+  // Default: the scene's spacing, moving or not.
   const SceneConfig a = parseScene(kBase + kBoundaries + "    motion: {angular_velocity: [0, 0, 1]}\n", "scene.yaml");
-  EXPECT_EQ(a.boundaries[0].sample_spacing, kAutoSampleSpacing);
-  EXPECT_DOUBLE_EQ(sampleSpacing(a.boundaries[0], a.spacing), a.spacing);        // the still tank
-  EXPECT_DOUBLE_EQ(sampleSpacing(a.boundaries[1], a.spacing), 0.5 * a.spacing);  // the turning ball
+  EXPECT_EQ(a.boundaries[1].sample_spacing, 0.0);
+  EXPECT_DOUBLE_EQ(sampleSpacing(a.boundaries[1], a.spacing), a.spacing);
+  // `auto`: half the spacing for a body that moves, the spacing for a still one.
   const SceneConfig b = parseScene(
       kBase + kBoundaries + "    motion: {angular_velocity: [0, 0, 1]}\n    sample_spacing: auto\n", "scene.yaml");
-  EXPECT_DOUBLE_EQ(sampleSpacing(b.boundaries[1], b.spacing), 0.5 * b.spacing);
-  // 0: the scene's spacing even for a moving body; a number: that.
+  EXPECT_EQ(b.boundaries[1].sample_spacing, kAutoSampleSpacing);
+  EXPECT_DOUBLE_EQ(sampleSpacing(b.boundaries[1], b.spacing), 0.5 * b.spacing);  // the turning ball
+  const SceneConfig still = parseScene(kBase + kBoundaries + "    sample_spacing: auto\n", "scene.yaml");
+  EXPECT_DOUBLE_EQ(sampleSpacing(still.boundaries[1], still.spacing), still.spacing);
+  // 0 given: the scene's spacing; a number: that.
   const SceneConfig c = parseScene(
       kBase + kBoundaries + "    motion: {angular_velocity: [0, 0, 1]}\n    sample_spacing: 0\n", "scene.yaml");
   EXPECT_DOUBLE_EQ(sampleSpacing(c.boundaries[1], c.spacing), c.spacing);

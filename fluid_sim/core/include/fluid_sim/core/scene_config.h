@@ -115,9 +115,9 @@ struct BoundaryConfig
   Pose pose;                      // body frame -> world at t = 0 (key: pose {xyz, rpy})
   MotionConfig motion;            // key: motion
   bool externally_posed = false;  // the caller poses it every step (ROS node through tf)
-  // m, boundary particle spacing; kAutoSampleSpacing (the default, key value `auto`): see
-  // sampleSpacing(); 0 = the scene spacing; may be finer, never coarser.     key: sample_spacing
-  double sample_spacing = -1.0;
+  // m, boundary particle spacing; 0 (the default): the scene spacing; kAutoSampleSpacing (key
+  // value `auto`): see sampleSpacing(); may be finer, never coarser.          key: sample_spacing
+  double sample_spacing = 0.0;
 };
 
 /// `sample_spacing: auto`.
@@ -131,8 +131,10 @@ bool canMove(const BoundaryConfig& b);
 /// spacing is a row of bumps one spacing apart that the water's first layer sits between; a wall
 /// that slides along the water drags it along by them (a cylinder turning under still water:
 /// 10-30 % of solid-body rotation per second at R/s 10-20 for every boundary method; sampled at
-/// half the spacing, below 0.2 %/s; docs/method_notes.md, Turning container). A still wall has
-/// nothing to slide, and keeps the coarser, cheaper sampling.
+/// half the spacing, below 0.2 %/s). Not the default: the finer layer's flat-layer volumes (Eq.
+/// A3, derived at the fluid spacing) push 2 % less at a spacing's distance, and a submerged cube
+/// feels 3-4 % less buoyancy (7 spacings a side), a 4-spacing cube 10 % less (docs/method_notes.md,
+/// Turning container).
 double sampleSpacing(const BoundaryConfig& b, double spacing);
 
 /// Fluid particles given one by one instead of as a lattice: the state of an earlier run (key
