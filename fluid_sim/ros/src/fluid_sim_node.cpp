@@ -6,7 +6,9 @@
 //   services         reset / pause / step and dynamic_reconfigure.
 #include "fluid_sim/ros/fluid_sim_node.h"
 
+#include <functional>
 #include <map>
+#include <string>
 
 #include <tbb/global_control.h>
 
@@ -29,8 +31,17 @@ struct FluidSimNode::Impl
   Publishers publishers{opt};
   SolverLoop loop{opt, links, publishers};
   Services services{loop, publishers};
+  std::function<void(int)> on_finished;  // set before start()
 
-  Impl(ros::NodeHandle n, ros::NodeHandle p) : nh(n), pnh(p) {}
+  Impl(ros::NodeHandle n, ros::NodeHandle p) : nh(n), pnh(p)
+  {
+    // A thread that died of an exception (already logged): the run ends with code 1.
+    auto failed = [this](const std::string&) {
+      if (on_finished) on_finished(1);
+    };
+    loop.onFailure(failed);
+    publishers.onFailure(failed);
+  }
 
   bool start()
   {
@@ -92,6 +103,7 @@ void FluidSimNode::stop()
 
 void FluidSimNode::onFinished(std::function<void(int)> callback)
 {
+  impl_->on_finished = callback;
   impl_->loop.onFinished(std::move(callback));
 }
 

@@ -1,6 +1,8 @@
 #include "fluid_sim/ros/node_parameters.h"
 
 #include <algorithm>
+#include <cmath>
+#include <sstream>
 
 #include <ros/console.h>
 #include <ros/package.h>
@@ -26,6 +28,82 @@ const std::set<std::string>& nodeKeys()
   return keys;
 }
 
+namespace
+{
+std::string number(double v)
+{
+  std::ostringstream os;
+  os << v;
+  return os.str();
+}
+
+bool realTimeFactorOk(double rtf)
+{
+  return rtf == 0.0 || (rtf >= ranges::kMinRealTimeFactor && rtf <= ranges::kMaxRealTimeFactor);
+}
+
+const std::string kRealTimeFactorRange = "must be 0 (as fast as it can) or in [" + number(ranges::kMinRealTimeFactor) +
+                                         ", " + number(ranges::kMaxRealTimeFactor) + "]";
+}  // namespace
+
+void checkNodeOptions(const NodeOptions& opt, const std::string& ns)
+{
+  auto bad = [&](const std::string& key, double value, const std::string& why) {
+    throw StartupError("parameter " + ns + "/" + key + " = " + number(value) + ": " + why);
+  };
+  // Written as !(in range) so that NaN is refused too.
+  auto range = [&](const std::string& key, double value, double lo, double hi, const std::string& unit) {
+    if (!(value >= lo && value <= hi))
+      bad(key, value, "out of range [" + number(lo) + ", " + number(hi) + "]" + (unit.empty() ? "" : " " + unit));
+  };
+  if (opt.fixed_frame.empty()) throw StartupError("parameter " + ns + "/fixed_frame: must not be empty");
+  if (!realTimeFactorOk(opt.real_time_factor)) bad("real_time_factor", opt.real_time_factor, kRealTimeFactorRange);
+  range("publish_rate", opt.publish_rate, ranges::kMinPublishRate, ranges::kMaxPublishRate, "Hz");
+  range("max_points", opt.max_points, 0, ranges::kMaxPoints, "(0 = all)");
+  range("tf_delay", opt.tf_delay, 0.0, ranges::kMaxTfDelay, "s");
+  range("tf_wait_timeout", opt.tf_wait_timeout, 0.0, ranges::kMaxTfWaitTimeout, "s (0 = wait for ever)");
+  range("stop_after", opt.stop_after, 0.0, ranges::kMaxStopAfter, "s (0 = run until shut down)");
+  range("threads", opt.threads, 0, ranges::kMaxThreads, "(0 = all cores)");
+}
+
+std::vector<std::string> checkReconfigure(fluid_sim::FluidSimConfig& requested,
+                                          const fluid_sim::FluidSimConfig& current)
+{
+  std::vector<std::string> warnings;
+  auto refuse = [&](const std::string& key, double value, const std::string& why, double kept) {
+    warnings.push_back("dynamic_reconfigure: " + key + " = " + number(value) + " refused (" + why + "); keeping " +
+                       number(kept));
+  };
+  auto finite = [&](const std::string& key, double& value, double kept) {
+    if (std::isfinite(value)) return;
+    refuse(key, value, "not a finite number", kept);
+    value = kept;
+  };
+  if (!realTimeFactorOk(requested.real_time_factor))
+  {
+    refuse("real_time_factor", requested.real_time_factor, kRealTimeFactorRange, current.real_time_factor);
+    requested.real_time_factor = current.real_time_factor;
+  }
+  if (!(requested.publish_rate >= ranges::kMinPublishRate && requested.publish_rate <= ranges::kMaxPublishRate))
+  {
+    refuse("publish_rate", requested.publish_rate,
+           "must be in [" + number(ranges::kMinPublishRate) + ", " + number(ranges::kMaxPublishRate) + "] Hz",
+           current.publish_rate);
+    requested.publish_rate = current.publish_rate;
+  }
+  if (requested.max_points < 0 || requested.max_points > ranges::kMaxPoints)
+  {
+    refuse("max_points", requested.max_points, "must be in [0, " + number(ranges::kMaxPoints) + "]",
+           current.max_points);
+    requested.max_points = current.max_points;
+  }
+  finite("density_error", requested.density_error, current.density_error);
+  finite("divergence_error", requested.divergence_error, current.divergence_error);
+  finite("viscosity_coefficient", requested.viscosity_coefficient, current.viscosity_coefficient);
+  finite("boundary_viscosity", requested.boundary_viscosity, current.boundary_viscosity);
+  return warnings;
+}
+
 NodeOptions readNodeOptions(const ros::NodeHandle& pnh)
 {
   NodeOptions opt;
@@ -42,18 +120,7 @@ NodeOptions readNodeOptions(const ros::NodeHandle& pnh)
   param("stop_after", opt.stop_after);
   param("threads", opt.threads);
   param("publish_boundary", opt.publish_boundary);
-  const std::string ns = pnh.getNamespace();
-  auto bad = [&](const std::string& key, const std::string& why) {
-    throw StartupError("parameter " + ns + "/" + key + ": " + why);
-  };
-  if (opt.fixed_frame.empty()) bad("fixed_frame", "must not be empty");
-  if (!(opt.real_time_factor >= 0.0)) bad("real_time_factor", "must be >= 0 (0 = as fast as possible)");
-  if (!(opt.publish_rate > 0.0)) bad("publish_rate", "must be > 0 Hz");
-  if (opt.max_points < 0) bad("max_points", "must be >= 0 (0 = all)");
-  if (!(opt.tf_delay >= 0.0)) bad("tf_delay", "must be >= 0 s");
-  if (!(opt.tf_wait_timeout >= 0.0)) bad("tf_wait_timeout", "must be >= 0 s (0 = wait for ever)");
-  if (!(opt.stop_after >= 0.0)) bad("stop_after", "must be >= 0 s (0 = run until shut down)");
-  if (opt.threads < 0) bad("threads", "must be >= 0 (0 = all cores)");
+  checkNodeOptions(opt, pnh.getNamespace());
   return opt;
 }
 

@@ -9,6 +9,7 @@
 
 #include "fluid_sim/ros/fluid_sim_node.h"
 #include "fluid_sim/ros/messages.h"
+#include "fluid_sim/ros/thread_guard.h"
 
 namespace fluid_sim
 {
@@ -25,6 +26,12 @@ double msSince(std::chrono::steady_clock::time_point t0)
 SolverLoop::SolverLoop(const NodeOptions& opt, LinkPoses& links, Publishers& publishers)
     : opt_(opt), links_(links), publishers_(publishers)
 {
+}
+
+SolverLoop::~SolverLoop()
+{
+  requestStop();
+  join();
 }
 
 void SolverLoop::setScene(SceneConfig scene, std::vector<BoundaryConfig> link_bodies)
@@ -78,7 +85,12 @@ void SolverLoop::build(const std::map<std::string, Pose>& poses)
 void SolverLoop::start()
 {
   run_start_ = WallClock::now();
-  thread_ = std::thread([this] { run(); });
+  // Nothing thrown in the solver thread (a ros::Duration out of range, bad_alloc, ...) may end
+  // the process unexplained: it is logged and reported (the node then shuts down).
+  thread_ = std::thread([this] {
+    runGuarded(
+        "solver", [this] { run(); }, on_failure_);
+  });
 }
 
 bool SolverLoop::requestStop()

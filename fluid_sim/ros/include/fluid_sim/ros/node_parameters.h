@@ -10,6 +10,7 @@
 
 #include <ros/node_handle.h>
 
+#include "fluid_sim/FluidSimConfig.h"
 #include "fluid_sim/core/scene_config.h"
 
 namespace fluid_sim
@@ -32,6 +33,33 @@ struct NodeOptions
   int threads = 0;                           // solver threads; 0 = all cores
   bool publish_boundary = true;
 };
+
+/// The checked ranges of the node's numeric parameters (README "The ROS node"). Values outside
+/// them would make ros::Duration throw in the solver thread (a real-time factor of 1e-12 turns
+/// a 4 ms step into 4e9 s of ROS time) or allocate without bound.
+namespace ranges
+{
+constexpr double kMinRealTimeFactor = 1e-3;  // besides 0 (as fast as it can)
+constexpr double kMaxRealTimeFactor = 100.0;
+constexpr double kMinPublishRate = 0.1;  // Hz
+constexpr double kMaxPublishRate = 1000.0;
+constexpr int kMaxPoints = 100000000;
+constexpr double kMaxTfDelay = 30.0;           // s
+constexpr double kMaxTfWaitTimeout = 86400.0;  // s
+constexpr double kMaxStopAfter = 1.0e6;        // s of simulated time
+constexpr int kMaxThreads = 1024;
+}  // namespace ranges
+
+/// Checks the ranges of `opt`; throws StartupError naming the parameter (under namespace `ns`)
+/// and its value.
+void checkNodeOptions(const NodeOptions& opt, const std::string& ns);
+
+/// Checks a dynamic_reconfigure request (already clamped to the .cfg's ranges by the server,
+/// but a NaN passes that, and a real-time factor just above 0 is in range there): each value
+/// out of the node's range is set back to its value in `current`, and one warning per refused
+/// value (naming it and the value) is returned.
+std::vector<std::string> checkReconfigure(fluid_sim::FluidSimConfig& requested,
+                                          const fluid_sim::FluidSimConfig& current);
 
 /// Private parameters that are not scene keys: the node's options, and the values the
 /// dynamic_reconfigure server writes back into the private namespace.

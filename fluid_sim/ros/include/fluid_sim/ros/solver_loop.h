@@ -44,6 +44,10 @@ class SolverLoop
 public:
   /// `opt` is read once by the node before any call below and must outlive the loop.
   SolverLoop(const NodeOptions& opt, LinkPoses& links, Publishers& publishers);
+  /// Stops and joins the solver thread (a joinable thread must not be destroyed).
+  ~SolverLoop();
+  SolverLoop(const SolverLoop&) = delete;
+  SolverLoop& operator=(const SolverLoop&) = delete;
 
   /// The scene without the robot and the robot's links (shapes in link frames); the live
   /// settings start from the node options.
@@ -65,6 +69,13 @@ public:
   void onFinished(std::function<void(int)> callback)
   {
     on_finished_ = std::move(callback);
+  }
+
+  /// Called once from the solver thread if something thrown there ended it (after it was
+  /// logged with ROS_FATAL), with the logged message.
+  void onFailure(std::function<void(const std::string&)> callback)
+  {
+    on_failure_ = std::move(callback);
   }
 
   /// True once requestStop() was called.
@@ -105,6 +116,7 @@ private:
   LinkPoses& links_;
   Publishers& publishers_;
   std::function<void(int)> on_finished_;
+  std::function<void(const std::string&)> on_failure_;
 
   // Scene and simulation. `base_scene_` has the scene's own bodies; link bodies are appended
   // with the poses tf gives at (re)start.
