@@ -127,7 +127,9 @@ private:
   // Commands from service and reconfigure callbacks, applied by the solver thread between steps.
   std::mutex cmd_mutex_;
   std::condition_variable cmd_cv_;
-  bool paused_ = false;
+  // Written under cmd_mutex_ (the condition variable's predicates read it there); atomic so
+  // that the solver thread may read it without the lock (publishFrame).
+  std::atomic<bool> paused_{false};
   bool reset_requested_ = false;
   bool reset_done_ = false;
   std::string reset_error_;
@@ -158,7 +160,10 @@ private:
   std::vector<std::pair<std::size_t, std::size_t>> body_ranges_;  // boundary particles of each body
   WrenchMeans wrench_means_;
   StepReport last_report_;
+  // Written by the solver thread under cmd_mutex_ (after each step, on reset), read by the
+  // step service under it; the solver thread reads them without the lock.
   std::string last_status_ = "ok";
+  double sim_time_ = 0.0;                    // s, simulated time after the last step (a copy of sim_->time())
   WallClock::time_point last_paused_stats_;  // stats while paused: at most one a second
 
   // Run statistics (for the summary printed at the end).
