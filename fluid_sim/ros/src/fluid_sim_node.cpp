@@ -8,6 +8,7 @@
 
 #include <functional>
 #include <map>
+#include <mutex>
 #include <string>
 
 #include <tbb/global_control.h>
@@ -32,15 +33,22 @@ struct FluidSimNode::Impl
   SolverLoop loop{opt, links, publishers};
   Services services{loop, publishers};
   std::function<void(int)> on_finished;  // set before start()
+  // Orders start()'s launch of the threads with stop(): once stop() has begun, none is launched.
+  std::mutex lifecycle;
+  bool stopped = false;  // under `lifecycle`
 
   Impl(ros::NodeHandle n, ros::NodeHandle p) : nh(n), pnh(p)
   {
     // A thread that died of an exception (already logged): the run ends with code 1.
-    auto failed = [this](const std::string&) {
+    // The other thread is told to stop too (the nodelet then stays loaded, idle).
+    loop.onFailure([this](const std::string&) {
+      publishers.requestStop();
       if (on_finished) on_finished(1);
-    };
-    loop.onFailure(failed);
-    publishers.onFailure(failed);
+    });
+    publishers.onFailure([this](const std::string&) {
+      loop.requestStop();
+      if (on_finished) on_finished(1);
+    });
   }
 
   bool start()
@@ -67,6 +75,10 @@ struct FluidSimNode::Impl
 
     std::vector<std::string> bodies;
     for (std::size_t k = 0; k < sim.numBodies(); ++k) bodies.push_back(sim.body(k).name);
+    // The threads start only if stop() has not begun: a nodelet unloaded while start() was
+    // still building must not get threads launched after its stop() returned.
+    std::lock_guard<std::mutex> lock(lifecycle);
+    if (stopped) return false;
     publishers.advertise(pnh, bodies);
     services.advertise(pnh, opt);
     publishers.start();
@@ -76,7 +88,10 @@ struct FluidSimNode::Impl
 
   void stop()
   {
-    if (!loop.requestStop()) return;
+    loop.requestStop();  // also ends a start() waiting for tf
+    std::lock_guard<std::mutex> lock(lifecycle);
+    if (stopped) return;
+    stopped = true;
     publishers.requestStop();
     loop.join();
     publishers.join();
