@@ -459,4 +459,21 @@ boundaries:
 }
 
 }  // namespace
+TEST(SceneLoader, NonFinitePoseIsAnErrorNamingKeyAndValue)
+{
+  // Only translations were checked: a NaN angle made the rotation NaN and the body vanished.
+  expectError(
+      kBase + "boundaries:\n  - sphere: {center: [0.7, 0.7, 0.7], radius: 0.1}\n    pose: {rpy: [.nan, 0, 0]}\n",
+      "boundaries[0].pose.rpy", "must be finite, got [nan, 0, 0]");
+  expectError(
+      kBase + "boundaries:\n  - sphere: {center: [0.7, 0.7, 0.7], radius: 0.1}\n    pose: {rpy: [0, .inf, 0]}\n",
+      "boundaries[0].pose.rpy", "got [0, inf, 0]");
+  expectError(
+      kBase + "boundaries:\n  - sphere: {center: [0.7, 0.7, 0.7], radius: 0.1}\n    pose: {xyz: [0, 0, .nan]}\n",
+      "boundaries[0].pose.xyz", "must be finite");
+  // Through --set as well.
+  expectError(kBase + "boundaries:\n  - sphere: {center: [0.7, 0.7, 0.7], radius: 0.1}\n    pose: {rpy: [0, 0, 0]}\n",
+              "boundaries[0].pose.rpy", "must be finite", {"boundaries[0].pose.rpy=[0, 0, .nan]"});
+}
+
 }  // namespace fluid_sim

@@ -8,8 +8,10 @@
 
 #include <gtest/gtest.h>
 
+#include "fluid_sim/core/simulation.h"
 #include "fluid_sim/io/scene_loader.h"
 #include "fluid_sim/ros/fluid_sim_node.h"
+#include "fluid_sim/ros/link_poses.h"
 #include "fluid_sim/ros/messages.h"
 #include "fluid_sim/ros/node_parameters.h"
 #include "fluid_sim/ros/param_yaml.h"
@@ -250,4 +252,50 @@ TEST(ThreadGuard, AnExceptionIsCaughtNamedAndReported)
   EXPECT_NE(reported.find("publisher thread stopped"), std::string::npos) << reported;
   EXPECT_TRUE(runGuarded(
       "solver", [] {}, nullptr));
+}
+
+// ------------------------------------------------------------------------------ tf poses
+TEST(LinkPoses, AnInfiniteTfPoseIsRefusedAndTheLastGoodPoseKept)
+{
+  ros::Time::init();
+  const SceneConfig scene = io::parseScene(R"yaml(
+spacing: 0.05
+domain: {min: [0, 0, 0], max: [1, 1, 1]}
+fluid:
+  - box: {min: [0.1, 0.1, 0.1], max: [0.4, 0.4, 0.4]}
+boundaries:
+  - name: pusher
+    box: {min: [-0.05, -0.05, -0.05], max: [0.05, 0.05, 0.05]}
+    external: true
+)yaml",
+                                           "scene.yaml");
+  Simulation sim(scene);
+  NodeOptions opt;
+  LinkPoses links(opt);
+  geometry_msgs::TransformStamped t;
+  t.header.frame_id = "world";
+  t.header.stamp = ros::Time(1.0);
+  t.child_frame_id = "pusher";
+  t.transform.translation.x = 0.7;
+  t.transform.translation.y = 0.7;
+  t.transform.translation.z = 0.7;
+  t.transform.rotation.w = 1.0;
+  ASSERT_TRUE(links.buffer().setTransform(t, "test"));
+  links.attach(sim, {"pusher"}, {{"pusher", Pose()}});
+  links.poseBodies(sim, ros::Time(0), true);
+  sim.step();
+  const std::size_t idx = sim.bodyIndex("pusher");
+  ASSERT_EQ(sim.body(idx).pose.translation, Vec3d(0.7, 0.7, 0.7));
+
+  // tf2 takes an infinite translation (it refuses only NaN); the node must not.
+  t.header.stamp = ros::Time(2.0);
+  t.transform.translation.z = INFINITY;
+  links.buffer().setTransform(t, "test");
+  std::string why;
+  EXPECT_FALSE(links.lookup("pusher", ros::Time(0), &why));
+  EXPECT_NE(why.find("not finite"), std::string::npos) << why;
+  links.poseBodies(sim, ros::Time(0), false);
+  sim.step();
+  EXPECT_EQ(sim.body(idx).pose.translation, Vec3d(0.7, 0.7, 0.7));
+  for (const Vec3& x : sim.boundaryPositions()) ASSERT_TRUE(x.allFinite());
 }

@@ -236,6 +236,7 @@ void validate(const SceneConfig& s)
         break;
     }
     requireFinite(b.pose.translation, key + ".pose.xyz");
+    if (!b.pose.rotation.coeffs().allFinite()) throw ConfigError(key + ".pose.rpy", "must be finite");
     requireFinite(b.motion.angular_velocity, key + ".motion.angular_velocity");
     requireFinite(b.motion.about, key + ".motion.about");
     requireFinite(b.motion.linear_velocity, key + ".motion.linear_velocity");

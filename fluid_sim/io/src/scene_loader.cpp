@@ -360,6 +360,15 @@ Pose readPose(const Entry& e)
   r.read("xyz", xyz);
   r.read("rpy", rpy);
   r.finish();
+  // A NaN or infinite angle makes the whole rotation NaN (the body vanishes).
+  const auto requireFinite = [&](const char* name, const Vec3d& v) {
+    if (v.allFinite()) return;
+    std::ostringstream os;
+    os << "must be finite, got [" << v.x() << ", " << v.y() << ", " << v.z() << "]";
+    throw ConfigError(childKey(e.key, name), os.str() + lineOf(e.node));
+  };
+  requireFinite("xyz", xyz);
+  requireFinite("rpy", rpy);
   return Pose::fromXyzRpy(xyz, rpy);
 }
 
