@@ -476,4 +476,13 @@ TEST(SceneLoader, NonFinitePoseIsAnErrorNamingKeyAndValue)
               "boundaries[0].pose.rpy", "must be finite", {"boundaries[0].pose.rpy=[0, 0, .nan]"});
 }
 
+TEST(SceneLoader, FluidParticleBudgetIsAKey)
+{
+  // kBase: a 0.4 m cube at 5 cm, 512 lattice points.
+  expectError("max_fluid_particles: 500\n" + kBase, "fluid",
+              "512 fluid particles at spacing 0.05 m, more than max_fluid_particles = 500");
+  EXPECT_EQ(errorOf("max_fluid_particles: 512\n" + kBase), "");
+  expectError("max_fluid_particles: 0\n" + kBase, "max_fluid_particles", "whole number >= 1");
+}
+
 }  // namespace fluid_sim

@@ -580,6 +580,12 @@ SceneConfig readScene(const YAML::Node& root, LoadContext& ctx)
     checkValue(*e, n >= 1.0 && n <= 1.0e12 && n == std::floor(n), "must be a whole number >= 1");
     s.max_boundary_particles = static_cast<std::size_t>(n);
   }
+  if (auto e = r.get("max_fluid_particles"))
+  {
+    const double n = readScalar<double>(*e);
+    checkValue(*e, n >= 1.0 && n <= 1.0e12 && n == std::floor(n), "must be a whole number >= 1");
+    s.max_fluid_particles = static_cast<std::size_t>(n);
+  }
   ctx.spacing = s.spacing;
   ctx.max_boundary_particles = s.max_boundary_particles;
   ctx.warnings = &s.warnings;
