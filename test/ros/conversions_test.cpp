@@ -299,3 +299,30 @@ boundaries:
   EXPECT_EQ(sim.body(idx).pose.translation, Vec3d(0.7, 0.7, 0.7));
   for (const Vec3& x : sim.boundaryPositions()) ASSERT_TRUE(x.allFinite());
 }
+
+TEST(NodeParameters, SceneFileYamlBecomesParametersAsRosparamMakesThem)
+{
+  XmlRpc::XmlRpcValue v = yamlToParameters(R"yaml(
+spacing: 0.02
+max_points: 3
+publish_boundary: false
+name: "0.5"
+links: [a, b]
+rpy: [.nan, 0, 1.5]
+mesh: {file: ../meshes/x.stl}
+)yaml");
+  ASSERT_EQ(v.getType(), XmlRpc::XmlRpcValue::TypeStruct);
+  EXPECT_EQ(v["spacing"].getType(), XmlRpc::XmlRpcValue::TypeDouble);
+  EXPECT_EQ(v["max_points"].getType(), XmlRpc::XmlRpcValue::TypeInt);
+  EXPECT_EQ(v["publish_boundary"].getType(), XmlRpc::XmlRpcValue::TypeBoolean);
+  EXPECT_EQ(v["name"].getType(), XmlRpc::XmlRpcValue::TypeString);  // quoted: stays a string
+  EXPECT_EQ(v["links"].size(), 2);
+  EXPECT_TRUE(std::isnan(double(v["rpy"][0])));
+  EXPECT_EQ(v["rpy"][1].getType(), XmlRpc::XmlRpcValue::TypeInt);
+  EXPECT_EQ(std::string(v["mesh"]["file"]), "../meshes/x.stl");
+  // And back to the scene YAML the loader reads.
+  const std::string yaml = sceneYaml(v, nodeKeys());
+  EXPECT_NE(yaml.find("\"spacing\": 0.02"), std::string::npos) << yaml;
+  EXPECT_EQ(yaml.find("max_points"), std::string::npos) << yaml;  // a node key, not a scene key
+  EXPECT_THROW(yamlToParameters("a: [1, 2"), std::invalid_argument);
+}

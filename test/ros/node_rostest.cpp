@@ -635,6 +635,19 @@ TEST(Errors, TinyRealTimeFactorFromReconfigureIsRefusedNotACrash)
   EXPECT_EQ(runToEnd(p, 20.0), 0) << readAll(p.log);
 }
 
+TEST(Errors, SceneFileResolvesRelativeMeshesAgainstItsFolder)
+{
+  // config/mesh_tank.yaml names its tank ../meshes/octagon_tank.stl; loaded as parameters the
+  // path resolved against nothing. With ~scene_file the node reads the file and runs it.
+  Process p = spawnNode("scene_file_node");
+  const int code = runToEnd(p, 180.0);
+  const std::string out = readAll(p.log);
+  EXPECT_EQ(code, 0) << out;
+  EXPECT_NE(out.find("fluid_sim: finished at t = 0.02"), std::string::npos) << out;
+  EXPECT_NE(out.find("  tank: force"), std::string::npos) << out;
+  EXPECT_NE(out.find("  block: force"), std::string::npos) << out;
+}
+
 TEST(Errors, LateTfIsWaitedForNotACrash)
 {
   Process p = spawnNode("late_tf");

@@ -53,12 +53,13 @@ struct FluidSimNode::Impl
 
   bool start()
   {
-    opt = readNodeOptions(pnh);
+    const NodeParameters params = readNodeParameters(pnh);
+    opt = readNodeOptions(params);
     publishers.setMaxPoints(static_cast<std::size_t>(opt.max_points));
     if (opt.threads > 0)
       threads = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
                                                       static_cast<std::size_t>(opt.threads));
-    SceneConfig scene = readScene(pnh);
+    SceneConfig scene = readScene(params);
     std::vector<BoundaryConfig> link_bodies = readRobotLinks(nh, pnh, opt, scene);
     loop.setScene(std::move(scene), std::move(link_bodies));
     links.listen(nh);

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include <ros/node_handle.h>
+#include <xmlrpcpp/XmlRpcValue.h>
 
 #include "fluid_sim/FluidSimConfig.h"
 #include "fluid_sim/core/scene_config.h"
@@ -65,13 +66,33 @@ std::vector<std::string> checkReconfigure(fluid_sim::FluidSimConfig& requested,
 /// dynamic_reconfigure server writes back into the private namespace.
 const std::set<std::string>& nodeKeys();
 
-/// Reads the node's options from `pnh` (defaults for absent ones) and checks their ranges.
-/// Throws StartupError naming the parameter.
-NodeOptions readNodeOptions(const ros::NodeHandle& pnh);
+/// The node's parameters in one map: the top-level keys of the scene file that ~scene_file
+/// names (if set), with the private parameters on top (a private parameter wins over the file).
+struct NodeParameters
+{
+  XmlRpc::XmlRpcValue values;  // a struct (or invalid when there is nothing at all)
+  std::string ns;              // the private namespace, e.g. /fluid_sim
+  std::string scene_file;      // the resolved path of ~scene_file; "" without one
+};
 
-/// The scene from the private parameters of `pnh` that are not in nodeKeys(), checked by the
-/// scene loader; its warnings are logged. Throws StartupError.
-SceneConfig readScene(const ros::NodeHandle& pnh);
+/// Reads the private parameters of `pnh` and the scene file named by ~scene_file (an absolute
+/// path, package://pkg/path or file:///path; read afresh at every start). Throws StartupError
+/// naming the parameter or the file.
+NodeParameters readNodeParameters(const ros::NodeHandle& pnh);
+
+/// The node's options from `params` (defaults for absent ones), type- and range-checked.
+/// Throws StartupError naming the parameter.
+NodeOptions readNodeOptions(const NodeParameters& params);
+
+/// The scene from the keys of `params` that are not in nodeKeys(), checked by the scene loader;
+/// relative file names in it resolve against the scene file's folder (the working directory
+/// without ~scene_file). Its warnings are logged. Throws StartupError.
+SceneConfig readScene(const NodeParameters& params);
+
+/// YAML text as parameter values, as `rosparam load` makes them (a quoted scalar stays a
+/// string; true/false are booleans, whole numbers int, other numbers double, .nan and .inf
+/// included). Throws std::invalid_argument for text that is not YAML.
+XmlRpc::XmlRpcValue yamlToParameters(const std::string& yaml_text);
 
 /// The robot's links as bodies (shapes in link frames, externally posed; containers marked
 /// inside) from the URDF in the parameter opt.robot_description_param of `nh`; empty when that
