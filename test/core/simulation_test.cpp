@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <stdexcept>
+#include <string>
 
 #include "fluid_sim/core/bodies.h"
 
@@ -388,6 +390,38 @@ TEST(Simulation, ExternalPosesGiveVelocities)
   sim.step();
   EXPECT_EQ(sim.body(idx).linear_velocity, Vec3d::Zero());
   EXPECT_NEAR(sim.body(idx).pose.translation.x(), 0.2, 1e-12);
+}
+
+TEST(Simulation, NonFiniteExternalPoseIsRefusedNamingTheBody)
+{
+  Simulation sim(externalPusherScene());
+  const std::size_t idx = sim.bodyIndex("pusher");
+  Pose good;
+  good.translation = Vec3d(0.1, 0, 0);
+  sim.setBodyPose(idx, good, true);
+  sim.step();
+  Pose nan_rotation = good;
+  nan_rotation.rotation = Eigen::Quaterniond(NAN, 0, 0, 0);
+  Pose inf_translation = good;
+  inf_translation.translation.z() = INFINITY;
+  for (const Pose& bad : {nan_rotation, inf_translation})
+  {
+    try
+    {
+      sim.setBodyPose(idx, bad);
+      ADD_FAILURE() << "a non-finite pose was accepted";
+    }
+    catch (const std::invalid_argument& e)
+    {
+      EXPECT_NE(std::string(e.what()).find("body 'pusher'"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("not finite"), std::string::npos) << e.what();
+    }
+    sim.step();
+    // The body keeps its last good pose, and so do its particles.
+    EXPECT_EQ(sim.body(idx).pose.translation, good.translation);
+    EXPECT_TRUE(sim.body(idx).pose.rotation.coeffs().allFinite());
+    for (const Vec3& x : sim.boundaryPositions()) ASSERT_TRUE(x.allFinite());
+  }
 }
 
 TEST(Simulation, ExternalBodyThatStopsHasZeroVelocityAtOnce)

@@ -220,6 +220,28 @@ TEST(MeshLoader, BadFilesGiveClearErrors)
 
 /// Largest distance from the true surface to the facets, sampled: points of the facets projected
 /// radially onto the true surface and the other way round.
+TEST(MeshLoader, FaceIndicesOutOfRangeAreErrorsNotOutOfBoundsReads)
+{
+  // assimp's PLY reader passes a face index beyond the vertices (or a negative one, read as
+  // 2^32 - 5) through unless the data structure is validated; it was then read out of bounds.
+  test::TempDir dir;
+  const std::string header =
+      "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+      "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n";
+  for (const std::string& face : {"3 0 1 7\n", "3 0 1 -5\n", "3 0 1 3\n"})
+  {
+    const std::string path = dir.write("bad_index.ply", header + face);
+    const std::string e = errorOf([&] { readMeshFile(path); });
+    EXPECT_NE(e.find(path + ": "), std::string::npos) << face << e;
+    EXPECT_NE(e.find("out of range"), std::string::npos) << face << e;
+  }
+  // OBJ: assimp's own check, named with the file.
+  const std::string obj = dir.write("bad_index.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n");
+  const std::string e = errorOf([&] { readMeshFile(obj); });
+  EXPECT_NE(e.find(obj + ": cannot read the mesh"), std::string::npos) << e;
+  EXPECT_NE(e.find("out of range"), std::string::npos) << e;
+}
+
 TEST(MeshLoader, PrimitiveTessellationsAreWithinTheirError)
 {
   const TriangleMesh box = io::boxMesh(Vec3d(0.4, 0.3, 0.1));

@@ -93,6 +93,34 @@ TEST(ResourceResolver, DefaultResolverFindsTheFixturePackageInGivenFolders)
   EXPECT_EQ(io::packageNameOf(kFixtures + "/fluid_sim_test_pkg/package.xml"), "fluid_sim_test_pkg");
 }
 
+TEST(ResourceResolver, PackageXmlIsParsedAsXml)
+{
+  test::TempDir dir;
+  // A long comment: the regular expression that stripped comments recursed once per character
+  // and overflowed the stack (a crash while crawling ROS_PACKAGE_PATH).
+  const std::string long_comment = "<?xml version=\"1.0\"?>\n<!-- " + std::string(2000000, 'x') +
+                                   " -->\n<package format=\"2\">\n  <name>long_comment_pkg</name>\n</package>\n";
+  EXPECT_EQ(io::packageNameOf(dir.write("a.xml", long_comment)), "long_comment_pkg");
+  // Example tags in comments and nested <name>s are not the package's name.
+  const std::string tricky = R"(<?xml version="1.0"?>
+<!-- copy me: <package><name>template</name></package> -->
+<package format="3">
+  <export><name>not_this</name></export>
+  <name>
+    real_name
+  </name>
+</package>
+)";
+  EXPECT_EQ(io::packageNameOf(dir.write("b.xml", tricky)), "real_name");
+  // Not a package manifest, or not XML: no name (the crawler skips it).
+  EXPECT_EQ(io::packageNameOf(dir.write("c.xml", "<robot><name>r</name></robot>")), "");
+  EXPECT_EQ(io::packageNameOf(dir.write("d.xml", "<package><name>unclosed</package>")), "");
+  EXPECT_EQ(io::packageNameOf(dir.write("e.xml", std::string(100000, '<'))), "");
+  std::string deep = "<package><name>deep</name>";
+  for (int k = 0; k < 100000; ++k) deep += "<a>";
+  EXPECT_EQ(io::packageNameOf(dir.write("f.xml", deep)), "");
+}
+
 TEST(ResourceResolver, DefaultResolverSearchesRosPackagePathRecursively)
 {
   test::TempDir dir;

@@ -482,4 +482,30 @@ boundaries:
 }
 
 }  // namespace
+TEST(SceneLoader, NonFinitePoseIsAnErrorNamingKeyAndValue)
+{
+  // Only translations were checked: a NaN angle made the rotation NaN and the body vanished.
+  expectError(
+      kBase + "boundaries:\n  - sphere: {center: [0.7, 0.7, 0.7], radius: 0.1}\n    pose: {rpy: [.nan, 0, 0]}\n",
+      "boundaries[0].pose.rpy", "must be finite, got [nan, 0, 0]");
+  expectError(
+      kBase + "boundaries:\n  - sphere: {center: [0.7, 0.7, 0.7], radius: 0.1}\n    pose: {rpy: [0, .inf, 0]}\n",
+      "boundaries[0].pose.rpy", "got [0, inf, 0]");
+  expectError(
+      kBase + "boundaries:\n  - sphere: {center: [0.7, 0.7, 0.7], radius: 0.1}\n    pose: {xyz: [0, 0, .nan]}\n",
+      "boundaries[0].pose.xyz", "must be finite");
+  // Through --set as well.
+  expectError(kBase + "boundaries:\n  - sphere: {center: [0.7, 0.7, 0.7], radius: 0.1}\n    pose: {rpy: [0, 0, 0]}\n",
+              "boundaries[0].pose.rpy", "must be finite", {"boundaries[0].pose.rpy=[0, 0, .nan]"});
+}
+
+TEST(SceneLoader, FluidParticleBudgetIsAKey)
+{
+  // kBase: a 0.4 m cube at 5 cm, 512 lattice points.
+  expectError("max_fluid_particles: 500\n" + kBase, "fluid",
+              "512 fluid particles at spacing 0.05 m, more than max_fluid_particles = 500");
+  EXPECT_EQ(errorOf("max_fluid_particles: 512\n" + kBase), "");
+  expectError("max_fluid_particles: 0\n" + kBase, "max_fluid_particles", "whole number >= 1");
+}
+
 }  // namespace fluid_sim

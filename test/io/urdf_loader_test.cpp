@@ -248,6 +248,45 @@ TEST(UrdfLoader, BadUrdfsGiveClearErrors)
   EXPECT_NE(unknown.find("unknown package 'nowhere'"), std::string::npos) << unknown;
 }
 
+TEST(UrdfLoader, NonFinitePosesAreErrorsNamingTheLink)
+{
+  // Each origin is finite (urdfdom refuses "nan" and "inf" in the text), but two of them add up
+  // to infinity: the link would vanish with its water kept.
+  const std::string chain = R"(<robot name="r">
+  <link name="base"/>
+  <link name="mid"/>
+  <link name="tip"><collision><geometry><box size="0.1 0.1 0.1"/></geometry></collision></link>
+  <joint name="j1" type="fixed"><parent link="base"/><child link="mid"/><origin xyz="1e308 0 0"/></joint>
+  <joint name="j2" type="fixed"><parent link="mid"/><child link="tip"/><origin xyz="1e308 0 0"/></joint>
+</robot>)";
+  const std::string far = errorOf([&] { io::urdfBoundaries(io::parseUrdf(chain, "chain.urdf"), fixtureOptions()); });
+  EXPECT_NE(far.find("chain.urdf: link 'tip'"), std::string::npos) << far;
+  EXPECT_NE(far.find("not finite"), std::string::npos) << far;
+  EXPECT_NE(far.find("inf"), std::string::npos) << far;
+
+  // A NaN root pose (the scene's `pose` of a urdf entry, or a caller's).
+  const std::string one = R"(<robot name="r">
+  <link name="base"><collision><geometry><box size="0.1 0.1 0.1"/></geometry></collision></link>
+</robot>)";
+  io::UrdfBoundaryOptions o = fixtureOptions();
+  o.root_pose = Pose::fromXyzRpy(Vec3d::Zero(), Vec3d(NAN, 0, 0));
+  const std::string root = errorOf([&] { io::urdfBoundaries(io::parseUrdf(one, "one.urdf"), o); });
+  EXPECT_NE(root.find("one.urdf: root link 'base': pose is not finite"), std::string::npos) << root;
+
+  // A huge but finite axis is a direction like any other.
+  const std::string axis = R"(<robot name="r">
+  <link name="base"/>
+  <link name="arm"><collision><origin xyz="0.5 0 0"/><geometry><box size="0.1 0.1 0.1"/></geometry></collision></link>
+  <joint name="j" type="continuous"><parent link="base"/><child link="arm"/><axis xyz="0 0 1e200"/></joint>
+</robot>)";
+  o = fixtureOptions();
+  o.joint_positions = {{"j", M_PI / 2}};
+  const std::vector<BoundaryConfig> bodies = io::urdfBoundaries(io::parseUrdf(axis, "axis.urdf"), o);
+  const BoundaryConfig& arm = byName(bodies, "arm");
+  EXPECT_NEAR(arm.pose.rotation.norm(), 1.0, 1e-12);
+  EXPECT_NEAR((arm.pose.rotation * Vec3d::UnitX() - Vec3d::UnitY()).norm(), 0.0, 1e-12);
+}
+
 TEST(UrdfLoader, UrdfFromAString)
 {
   const std::string xml = R"(<robot name="r">

@@ -1,11 +1,21 @@
 // In-process checks of the ROS layer's conversions (no master needed).
+#include <cmath>
 #include <cstring>
+#include <functional>
+#include <stdexcept>
+#include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 
+#include "fluid_sim/core/simulation.h"
 #include "fluid_sim/io/scene_loader.h"
+#include "fluid_sim/ros/fluid_sim_node.h"
+#include "fluid_sim/ros/link_poses.h"
 #include "fluid_sim/ros/messages.h"
+#include "fluid_sim/ros/node_parameters.h"
 #include "fluid_sim/ros/param_yaml.h"
+#include "fluid_sim/ros/thread_guard.h"
 
 using namespace fluid_sim;
 using namespace fluid_sim::ros_bridge;
@@ -148,4 +158,171 @@ TEST(Layers, CoreAndIoHeadersIncludeNoRos)
     pclose(pipe);
     EXPECT_EQ(found, "") << dir << " includes ROS headers";
   }
+}
+
+// ------------------------------------------------------------------------------ ranges
+namespace
+{
+std::string startupError(const NodeOptions& opt)
+{
+  try
+  {
+    checkNodeOptions(opt, "/fluid_sim");
+  }
+  catch (const StartupError& e)
+  {
+    return e.what();
+  }
+  return "";
+}
+}  // namespace
+
+TEST(NodeParameters, EveryNumericParameterHasACheckedRangeNamedInTheError)
+{
+  EXPECT_EQ(startupError(NodeOptions()), "");
+  struct Case
+  {
+    std::function<void(NodeOptions&)> set;
+    std::string expected;
+  };
+  const std::vector<Case> cases = {
+      {[](NodeOptions& o) { o.real_time_factor = 1e-12; }, "/fluid_sim/real_time_factor = 1e-12"},
+      {[](NodeOptions& o) { o.real_time_factor = 1e9; }, "/fluid_sim/real_time_factor = 1e+09"},
+      {[](NodeOptions& o) { o.real_time_factor = NAN; }, "/fluid_sim/real_time_factor = nan"},
+      {[](NodeOptions& o) { o.tf_delay = 1e10; }, "/fluid_sim/tf_delay = 1e+10"},
+      {[](NodeOptions& o) { o.tf_delay = -1; }, "/fluid_sim/tf_delay = -1"},
+      {[](NodeOptions& o) { o.publish_rate = 1e-300; }, "/fluid_sim/publish_rate = 1e-300"},
+      {[](NodeOptions& o) { o.publish_rate = INFINITY; }, "/fluid_sim/publish_rate = inf"},
+      {[](NodeOptions& o) { o.tf_wait_timeout = 1e12; }, "/fluid_sim/tf_wait_timeout = 1e+12"},
+      {[](NodeOptions& o) { o.stop_after = 1e12; }, "/fluid_sim/stop_after = 1e+12"},
+      {[](NodeOptions& o) { o.threads = 100000; }, "/fluid_sim/threads = 100000"},
+      {[](NodeOptions& o) { o.max_points = -1; }, "/fluid_sim/max_points = -1"},
+  };
+  for (const Case& c : cases)
+  {
+    NodeOptions opt;
+    c.set(opt);
+    const std::string error = startupError(opt);
+    EXPECT_NE(error.find(c.expected), std::string::npos) << "'" << c.expected << "' not in '" << error << "'";
+  }
+  NodeOptions fast;
+  fast.real_time_factor = 0.0;  // as fast as it can
+  EXPECT_EQ(startupError(fast), "");
+}
+
+TEST(NodeParameters, ReconfigureRefusesATinyRealTimeFactorAndNaN)
+{
+  fluid_sim::FluidSimConfig current = fluid_sim::FluidSimConfig::__getDefault__();  // members have no initialisers
+  current.real_time_factor = 1.0;
+  current.publish_rate = 30.0;
+  current.density_error = 0.001;
+  fluid_sim::FluidSimConfig requested = current;
+  requested.real_time_factor = 1e-12;
+  requested.publish_rate = NAN;
+  requested.density_error = NAN;
+  const std::vector<std::string> warnings = checkReconfigure(requested, current);
+  EXPECT_EQ(requested.real_time_factor, 1.0);
+  EXPECT_EQ(requested.publish_rate, 30.0);
+  EXPECT_EQ(requested.density_error, 0.001);
+  ASSERT_EQ(warnings.size(), 3u);
+  EXPECT_NE(warnings[0].find("real_time_factor = 1e-12 refused"), std::string::npos) << warnings[0];
+  EXPECT_NE(warnings[1].find("publish_rate = nan refused"), std::string::npos) << warnings[1];
+  EXPECT_NE(warnings[2].find("density_error = nan refused"), std::string::npos) << warnings[2];
+
+  fluid_sim::FluidSimConfig fine = current;
+  fine.real_time_factor = 0.0;
+  EXPECT_TRUE(checkReconfigure(fine, current).empty());
+  fine.real_time_factor = 0.5;
+  EXPECT_TRUE(checkReconfigure(fine, current).empty());
+  EXPECT_EQ(fine.real_time_factor, 0.5);
+}
+
+TEST(ThreadGuard, AnExceptionIsCaughtNamedAndReported)
+{
+  std::string reported;
+  const bool ok = runGuarded(
+      "solver", [] { throw std::runtime_error("Duration is out of dual 32-bit range"); },
+      [&](const std::string& m) { reported = m; });
+  EXPECT_FALSE(ok);
+  EXPECT_NE(reported.find("solver thread stopped: Duration is out of dual 32-bit range"), std::string::npos)
+      << reported;
+  reported.clear();
+  EXPECT_FALSE(runGuarded(
+      "publisher", [] { throw 42; }, [&](const std::string& m) { reported = m; }));
+  EXPECT_NE(reported.find("publisher thread stopped"), std::string::npos) << reported;
+  EXPECT_TRUE(runGuarded(
+      "solver", [] {}, nullptr));
+}
+
+// ------------------------------------------------------------------------------ tf poses
+TEST(LinkPoses, AnInfiniteTfPoseIsRefusedAndTheLastGoodPoseKept)
+{
+  ros::Time::init();
+  const SceneConfig scene = io::parseScene(R"yaml(
+spacing: 0.05
+domain: {min: [0, 0, 0], max: [1, 1, 1]}
+fluid:
+  - box: {min: [0.1, 0.1, 0.1], max: [0.4, 0.4, 0.4]}
+boundaries:
+  - name: pusher
+    box: {min: [-0.05, -0.05, -0.05], max: [0.05, 0.05, 0.05]}
+    external: true
+)yaml",
+                                           "scene.yaml");
+  Simulation sim(scene);
+  NodeOptions opt;
+  LinkPoses links(opt);
+  geometry_msgs::TransformStamped t;
+  t.header.frame_id = "world";
+  t.header.stamp = ros::Time(1.0);
+  t.child_frame_id = "pusher";
+  t.transform.translation.x = 0.7;
+  t.transform.translation.y = 0.7;
+  t.transform.translation.z = 0.7;
+  t.transform.rotation.w = 1.0;
+  ASSERT_TRUE(links.buffer().setTransform(t, "test"));
+  links.attach(sim, {"pusher"}, {{"pusher", Pose()}});
+  links.poseBodies(sim, ros::Time(0), true);
+  sim.step();
+  const std::size_t idx = sim.bodyIndex("pusher");
+  ASSERT_EQ(sim.body(idx).pose.translation, Vec3d(0.7, 0.7, 0.7));
+
+  // tf2 takes an infinite translation (it refuses only NaN); the node must not.
+  t.header.stamp = ros::Time(2.0);
+  t.transform.translation.z = INFINITY;
+  links.buffer().setTransform(t, "test");
+  std::string why;
+  EXPECT_FALSE(links.lookup("pusher", ros::Time(0), &why));
+  EXPECT_NE(why.find("not finite"), std::string::npos) << why;
+  links.poseBodies(sim, ros::Time(0), false);
+  sim.step();
+  EXPECT_EQ(sim.body(idx).pose.translation, Vec3d(0.7, 0.7, 0.7));
+  for (const Vec3& x : sim.boundaryPositions()) ASSERT_TRUE(x.allFinite());
+}
+
+TEST(NodeParameters, SceneFileYamlBecomesParametersAsRosparamMakesThem)
+{
+  XmlRpc::XmlRpcValue v = yamlToParameters(R"yaml(
+spacing: 0.02
+max_points: 3
+publish_boundary: false
+name: "0.5"
+links: [a, b]
+rpy: [.nan, 0, 1.5]
+mesh: {file: ../meshes/x.stl}
+)yaml");
+  ASSERT_EQ(v.getType(), XmlRpc::XmlRpcValue::TypeStruct);
+  EXPECT_EQ(v["spacing"].getType(), XmlRpc::XmlRpcValue::TypeDouble);
+  EXPECT_EQ(v["max_points"].getType(), XmlRpc::XmlRpcValue::TypeInt);
+  EXPECT_EQ(v["publish_boundary"].getType(), XmlRpc::XmlRpcValue::TypeBoolean);
+  EXPECT_EQ(v["name"].getType(), XmlRpc::XmlRpcValue::TypeString);  // quoted: stays a string
+  EXPECT_EQ(v["links"].size(), 2);
+  EXPECT_TRUE(std::isnan(double(v["rpy"][0])));
+  EXPECT_EQ(v["rpy"][1].getType(), XmlRpc::XmlRpcValue::TypeInt);
+  EXPECT_EQ(std::string(v["mesh"]["file"]), "../meshes/x.stl");
+  // And back to the scene YAML the loader reads.
+  const std::string yaml = sceneYaml(v, nodeKeys());
+  EXPECT_NE(yaml.find("\"spacing\": 0.02"), std::string::npos) << yaml;
+  EXPECT_EQ(yaml.find("max_points"), std::string::npos) << yaml;  // a node key, not a scene key
+  EXPECT_THROW(yamlToParameters("a: [1, 2"), std::invalid_argument);
 }

@@ -622,6 +622,57 @@ TEST(Errors, BadSceneKeyIsNamed)
   expectStartupError("bad_key", {"solver.density_eror"});
 }
 
+TEST(Errors, OutOfRangeParameterIsNamed)
+{
+  expectStartupError("huge_tf_delay", {"/huge_tf_delay/tf_delay = 1e+10", "out of range"});
+}
+
+TEST(Errors, TinyRealTimeFactorFromReconfigureIsRefusedNotACrash)
+{
+  Process p = spawnNode("tiny_rtf");
+  auto stats = waitFor<fluid_msgs::SolverStats>("/tiny_rtf/stats", 60.0);
+  ASSERT_TRUE(stats) << readAll(p.log);
+  dynamic_reconfigure::Reconfigure srv;
+  dynamic_reconfigure::DoubleParameter rtf;
+  rtf.name = "real_time_factor";
+  rtf.value = 1e-12;
+  srv.request.config.doubles.push_back(rtf);
+  ASSERT_TRUE(ros::service::call("/tiny_rtf/set_parameters", srv)) << readAll(p.log);
+  // The server reports the value kept, the node says what it refused, and it runs on.
+  bool reported = false;
+  for (const auto& d : srv.response.config.doubles)
+    if (d.name == "real_time_factor")
+    {
+      reported = true;
+      EXPECT_DOUBLE_EQ(d.value, 1.0);
+    }
+  EXPECT_TRUE(reported);
+  const double t0 = stats->sim_time;
+  ros::WallDuration(2.0).sleep();
+  int status = 0;
+  ASSERT_EQ(waitpid(p.pid, &status, WNOHANG), 0) << "the node died:\n" << readAll(p.log);
+  auto later = waitFor<fluid_msgs::SolverStats>("/tiny_rtf/stats", 10.0);
+  ASSERT_TRUE(later) << readAll(p.log);
+  EXPECT_GT(later->sim_time, t0) << "it should still run, at real-time factor 1";
+  const std::string out = readAll(p.log);
+  EXPECT_NE(out.find("real_time_factor = 1e-12 refused"), std::string::npos) << out;
+  kill(p.pid, SIGINT);
+  EXPECT_EQ(runToEnd(p, 20.0), 0) << readAll(p.log);
+}
+
+TEST(Errors, SceneFileResolvesRelativeMeshesAgainstItsFolder)
+{
+  // config/mesh_tank.yaml names its tank ../meshes/octagon_tank.stl; loaded as parameters the
+  // path resolved against nothing. With ~scene_file the node reads the file and runs it.
+  Process p = spawnNode("scene_file_node");
+  const int code = runToEnd(p, 180.0);
+  const std::string out = readAll(p.log);
+  EXPECT_EQ(code, 0) << out;
+  EXPECT_NE(out.find("fluid_sim: finished at t = 0.02"), std::string::npos) << out;
+  EXPECT_NE(out.find("  tank: force"), std::string::npos) << out;
+  EXPECT_NE(out.find("  block: force"), std::string::npos) << out;
+}
+
 TEST(Errors, LateTfIsWaitedForNotACrash)
 {
   Process p = spawnNode("late_tf");

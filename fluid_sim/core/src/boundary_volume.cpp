@@ -3,10 +3,15 @@
 // boundary_sampling.h.
 
 #include <cmath>
+#include <unordered_map>
+#include <vector>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 
 #include "fluid_sim/core/boundary_sampling.h"
+#include "fluid_sim/core/cell_key.h"
 #include "fluid_sim/core/kernel.h"
-#include "fluid_sim/core/neighbor_search.h"
 
 namespace fluid_sim
 {
@@ -36,24 +41,49 @@ std::vector<Real> boundaryVolumes(const std::vector<Vec3d>& points, double suppo
   const Vec3d centre = 0.5 * (lo + hi);
   std::vector<Vec3> local(points.size());
   for (std::size_t i = 0; i < points.size(); ++i) local[i] = (points[i] - centre).cast<Real>();
-  UniformGrid grid(lo - centre, hi - centre, support, 1);
-  grid.build(local);
-  std::vector<Vec3> sorted(local.size());
-  for (std::size_t k = 0; k < local.size(); ++k) sorted[k] = local[grid.order()[k]];
-  const CubicKernel kernel{Real(support)};
-  const Real h2 = Real(support * support);
+  // A sparse grid of cells of the kernel support: memory follows the particles, not the bounding
+  // box (a dense grid over two small triangles 100 m apart asked for tens of GB). Cells are
+  // numbered from the box's lower corner less one cell, each cell keeps its points in input
+  // order, and the neighbour cells are visited z, y, x ascending: the sums add the same terms in
+  // the same order as the dense grid did (volumes unchanged bit for bit).
+  const double inv_cell = 1.0 / support;
+  const Vec3d origin = (lo - centre) - Vec3d::Constant(support);
+  const auto cellOf = [&](const Vec3& p) {
+    return CellKey{(long long)((double(p.x()) - origin.x()) * inv_cell),
+                   (long long)((double(p.y()) - origin.y()) * inv_cell),
+                   (long long)((double(p.z()) - origin.z()) * inv_cell)};
+  };
+  std::unordered_map<CellKey, std::vector<std::size_t>, CellKeyHash> cells;
+  cells.reserve(points.size());
+  std::vector<CellKey> cell_of(local.size());
   for (std::size_t i = 0; i < local.size(); ++i)
   {
-    double sum = 0.0;  // 1/m^3
-    grid.forEachRange(local[i], 1, [&](Index begin, Index end) {
-      for (Index k = begin; k < end; ++k)
-      {
-        const Real d2 = (local[i] - sorted[k]).squaredNorm();
-        if (d2 < h2) sum += kernel.W(std::sqrt(d2));
-      }
-    });
-    volumes[i] = Real(gamma / sum);  // sum > 0: it includes the point itself
+    cell_of[i] = cellOf(local[i]);
+    cells[cell_of[i]].push_back(i);
   }
+  const CubicKernel kernel{Real(support)};
+  const Real h2 = Real(support * support);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, local.size(), 1024),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t i = r.begin(); i != r.end(); ++i)
+                      {
+                        const CellKey c = cell_of[i];
+                        double sum = 0.0;  // 1/m^3
+                        for (long long z = c.z - 1; z <= c.z + 1; ++z)
+                          for (long long y = c.y - 1; y <= c.y + 1; ++y)
+                            for (long long x = c.x - 1; x <= c.x + 1; ++x)
+                            {
+                              const auto it = cells.find(CellKey{x, y, z});
+                              if (it == cells.end()) continue;
+                              for (const std::size_t k : it->second)
+                              {
+                                const Real d2 = (local[i] - local[k]).squaredNorm();
+                                if (d2 < h2) sum += kernel.W(std::sqrt(d2));
+                              }
+                            }
+                        volumes[i] = Real(gamma / sum);  // sum > 0: it includes the point itself
+                      }
+                    });
   return volumes;
 }
 

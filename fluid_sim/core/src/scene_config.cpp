@@ -1,5 +1,6 @@
 #include "fluid_sim/core/scene_config.h"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 
@@ -63,6 +64,10 @@ const char* toString(ViscosityModel model)
 
 namespace
 {
+constexpr double kMinTimeStep = 1e-7;  // s
+constexpr double kMaxTimeStep = 1.0;   // s
+constexpr int kMaxSolverIterations = 10000;
+
 std::string str(double v)
 {
   std::ostringstream os;
@@ -156,10 +161,20 @@ void validate(const SceneConfig& s)
     requirePositive(ts.min, "time_step.min");
     requirePositive(ts.max, "time_step.max");
     if (ts.min > ts.max) throw ConfigError("time_step.min", "must not exceed time_step.max");
+    // Below 1e-7 s a run makes no progress (10 million steps per simulated second); above 1 s
+    // nothing about a CFL step is left.
+    if (ts.min < kMinTimeStep || ts.min > kMaxTimeStep)
+      throw ConfigError("time_step.min",
+                        "must be in [" + str(kMinTimeStep) + ", " + str(kMaxTimeStep) + "] s, got " + str(ts.min));
+    if (ts.max > kMaxTimeStep)
+      throw ConfigError("time_step.max", "must be <= " + str(kMaxTimeStep) + " s, got " + str(ts.max));
   }
   else
   {
     requirePositive(ts.fixed, "time_step.fixed");
+    if (ts.fixed < kMinTimeStep || ts.fixed > kMaxTimeStep)
+      throw ConfigError("time_step.fixed",
+                        "must be in [" + str(kMinTimeStep) + ", " + str(kMaxTimeStep) + "] s, got " + str(ts.fixed));
     if (ts.fixed > 0.1) throw ConfigError("time_step.fixed", "must be <= 0.1 s, got " + str(ts.fixed));
   }
 
@@ -170,6 +185,14 @@ void validate(const SceneConfig& s)
     throw ConfigError("solver.min_iterations", "must be >= 0, got " + std::to_string(sv.min_iterations));
   if (sv.max_iterations < 1)
     throw ConfigError("solver.max_iterations", "must be >= 1, got " + std::to_string(sv.max_iterations));
+  // Each iteration is two passes over every neighbour pair: more than this is a hang, not a
+  // tolerance (the density solve converges in 2-10 iterations in every shipped scene).
+  if (sv.max_iterations > kMaxSolverIterations)
+    throw ConfigError("solver.max_iterations", "must be <= " + std::to_string(kMaxSolverIterations) + ", got " +
+                                                   std::to_string(sv.max_iterations));
+  if (sv.min_iterations > kMaxSolverIterations)
+    throw ConfigError("solver.min_iterations", "must be <= " + std::to_string(kMaxSolverIterations) + ", got " +
+                                                   std::to_string(sv.min_iterations));
   if (sv.min_iterations > sv.max_iterations)
     throw ConfigError("solver.min_iterations", "must not exceed solver.max_iterations");
   if (sv.min_divergence_iterations < 0 || sv.min_divergence_iterations > sv.max_iterations)
@@ -191,6 +214,7 @@ void validate(const SceneConfig& s)
   requireNonNegative(s.output.frame_interval, "output.frame_interval");
   requireNonNegative(s.duration, "duration");
   if (s.max_boundary_particles < 1) throw ConfigError("max_boundary_particles", "must be >= 1");
+  if (s.max_fluid_particles < 1) throw ConfigError("max_fluid_particles", "must be >= 1");
 
   if (s.fluid.empty()) throw ConfigError("fluid", "the scene has no fluid block");
   for (std::size_t i = 0; i < s.fluid.size(); ++i)
@@ -206,6 +230,26 @@ void validate(const SceneConfig& s)
     if (!boxInside(s.fluid[i].box, s.domain))
       throw ConfigError(key + ".box", "fluid block lies (partly) outside the domain");
   }
+  // The particle budget, before the fill allocates anything (the domain check alone allows
+  // about 1.6e9 lattice points). Counted as the fill counts its lattice (fluid_fill.cpp).
+  double fluid_particles = 0.0;
+  for (const FluidBlockConfig& block : s.fluid)
+  {
+    if (block.particles)
+    {
+      fluid_particles += double(block.particles->positions.size());
+      continue;
+    }
+    double n = 1.0;
+    for (int a = 0; a < 3; ++a)
+      n *= std::max(1.0, std::floor((block.box.max[a] - block.box.min[a]) / s.spacing + 1e-6));
+    fluid_particles += n;
+  }
+  if (fluid_particles > double(s.max_fluid_particles))
+    throw ConfigError("fluid", "the blocks make " + str(fluid_particles) + " fluid particles at spacing " +
+                                   str(s.spacing) +
+                                   " m, more than max_fluid_particles = " + std::to_string(s.max_fluid_particles) +
+                                   "; enlarge the spacing, shrink the blocks or raise max_fluid_particles");
 
   // fill.relax_tolerance is a relative density error (Eq. A23): at 0 no lattice could meet it, at
   // 1 or more it would never relax anything.
@@ -248,6 +292,7 @@ void validate(const SceneConfig& s)
         break;
     }
     requireFinite(b.pose.translation, key + ".pose.xyz");
+    if (!b.pose.rotation.coeffs().allFinite()) throw ConfigError(key + ".pose.rpy", "must be finite");
     requireFinite(b.motion.angular_velocity, key + ".motion.angular_velocity");
     requireFinite(b.motion.about, key + ".motion.about");
     requireFinite(b.motion.linear_velocity, key + ".motion.linear_velocity");

@@ -5,6 +5,7 @@
 #include "fluid_sim/core/simulation.h"
 
 #include <memory>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 
@@ -155,6 +156,17 @@ void Simulation::setBodyPose(std::size_t index, const Pose& pose, bool jump)
   const Body& body = impl_->bodies[index];
   if (!body.config.externally_posed)
     throw ConfigError(body.config.name, "body is not externally posed (set `external: true`)");
+  // A NaN or infinite pose would move every particle of the body to nowhere (the body vanishes
+  // and the fluid it held is kept): refused, and the body keeps its last pose.
+  if (!pose.translation.allFinite() || !pose.rotation.coeffs().allFinite())
+  {
+    std::ostringstream os;
+    os << "setBodyPose: body '" << body.config.name << "': the pose is not finite (translation ["
+       << pose.translation.x() << ", " << pose.translation.y() << ", " << pose.translation.z() << "] m, rotation (w "
+       << pose.rotation.w() << ", x " << pose.rotation.x() << ", y " << pose.rotation.y() << ", z " << pose.rotation.z()
+       << "))";
+    throw std::invalid_argument(os.str());
+  }
   impl_->bodies.setPendingPose(index, pose, jump);
 }
 

@@ -9,6 +9,7 @@
 #include <cctype>
 #include <cmath>
 #include <filesystem>
+#include <limits>
 #include <unordered_map>
 #include <utility>
 
@@ -46,15 +47,28 @@ struct Soup
   std::size_t dropped_primitives = 0;
 };
 
+/// Deepest node hierarchy collect() follows (a recursion per level).
+constexpr int kMaxNodeDepth = 256;
+
 void collect(const aiScene& scene, const aiNode& node, const Eigen::Matrix4d& parent, const std::string& path,
-             Soup& soup)
+             Soup& soup, int depth = 0)
 {
+  // aiProcess_ValidateDataStructure has checked the scene; these checks keep a malformed file
+  // from reading memory it does not own even if a loader got something past it.
+  if (depth > kMaxNodeDepth)
+    throw ConfigError(path, "the node hierarchy is deeper than " + std::to_string(kMaxNodeDepth) + " levels");
   const Eigen::Matrix4d transform = parent * toEigen(node.mTransformation);
   const Eigen::Matrix3d linear = transform.topLeftCorner<3, 3>();
   const bool mirrored = linear.determinant() < 0.0;
   for (unsigned k = 0; k < node.mNumMeshes; ++k)
   {
+    if (!node.mMeshes || node.mMeshes[k] >= scene.mNumMeshes || !scene.mMeshes[node.mMeshes[k]])
+      throw ConfigError(path, "node '" + std::string(node.mName.C_Str()) + "' names a mesh that does not exist");
     const aiMesh& mesh = *scene.mMeshes[node.mMeshes[k]];
+    if (mesh.mNumVertices > 0 && !mesh.mVertices)
+      throw ConfigError(path, "mesh '" + std::string(mesh.mName.C_Str()) + "' has no vertex array");
+    if (soup.vertices.size() + mesh.mNumVertices > std::size_t(std::numeric_limits<int>::max()))
+      throw ConfigError(path, "more than " + std::to_string(std::numeric_limits<int>::max()) + " vertices");
     const int first = static_cast<int>(soup.vertices.size());
     for (unsigned v = 0; v < mesh.mNumVertices; ++v)
     {
@@ -73,13 +87,23 @@ void collect(const aiScene& scene, const aiNode& node, const Eigen::Matrix4d& pa
         ++soup.dropped_primitives;
         continue;
       }
+      for (unsigned i = 0; i < 3; ++i)
+        if (face.mIndices[i] >= mesh.mNumVertices)
+          throw ConfigError(path, "mesh '" + std::string(mesh.mName.C_Str()) + "': face " + std::to_string(f) +
+                                      " names vertex " + std::to_string(face.mIndices[i]) + ", but the mesh has " +
+                                      std::to_string(mesh.mNumVertices) + " vertices");
       std::array<int, 3> t = {first + int(face.mIndices[0]), first + int(face.mIndices[1]),
                               first + int(face.mIndices[2])};
       if (mirrored) std::swap(t[1], t[2]);
       soup.triangles.push_back(t);
     }
   }
-  for (unsigned c = 0; c < node.mNumChildren; ++c) collect(scene, *node.mChildren[c], transform, path, soup);
+  for (unsigned c = 0; c < node.mNumChildren; ++c)
+  {
+    if (!node.mChildren || !node.mChildren[c])
+      throw ConfigError(path, "node '" + std::string(node.mName.C_Str()) + "' has a missing child");
+    collect(scene, *node.mChildren[c], transform, path, soup, depth + 1);
+  }
 }
 
 /// Joins vertices closer than `eps` (m): the first of a cluster stands for it.
@@ -159,7 +183,11 @@ MeshFile readMeshFile(const std::string& path, const Vec3d& scale)
   // No aiProcess_JoinIdenticalVertices: it merges a NaN vertex into a finite one (hiding it), and
   // it would not join STL corners anyway (their per-face normals differ); the vertices are joined
   // by position below instead.
-  const aiScene* scene = importer.ReadFile(path, aiProcess_Triangulate | aiProcess_SortByPType);
+  // aiProcess_ValidateDataStructure: a face index beyond its mesh's vertices (an ascii PLY
+  // that says "3 0 1 7" with three vertices) fails the import instead of being read out of
+  // bounds; the error names the file.
+  const aiScene* scene =
+      importer.ReadFile(path, aiProcess_ValidateDataStructure | aiProcess_Triangulate | aiProcess_SortByPType);
   if (!scene || !scene->mRootNode || (scene->mFlags & AI_SCENE_FLAGS_INCOMPLETE))
   {
     const std::string reason = importer.GetErrorString();

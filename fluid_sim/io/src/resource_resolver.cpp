@@ -1,12 +1,14 @@
 #include "fluid_sim/io/resource_resolver.h"
 
+#include <tinyxml2.h>
+
 #include <algorithm>
+#include <cctype>
 #include <cstdlib>
 #include <filesystem>
 #include <map>
 #include <memory>
 #include <mutex>
-#include <regex>
 #include <sstream>
 
 #include "fluid_sim/core/types.h"
@@ -74,11 +76,22 @@ std::string packageNameOf(const std::string& package_xml)
   {
     return "";
   }
-  // Comments may hold example tags; drop them before looking for <name>.
-  const std::string xml = std::regex_replace(text, std::regex("<!--[\\s\\S]*?-->"), "");
-  std::smatch match;
-  if (!std::regex_search(xml, match, std::regex("<name>\\s*([^<\\s]+)\\s*</name>"))) return "";
-  return match[1].str();
+  // An XML parse, not a regular expression (std::regex recursed per character and overflowed
+  // the stack on a long comment): comments, CDATA and nesting are the parser's business, and
+  // tinyxml2 refuses nesting deeper than TINYXML2_MAX_ELEMENT_DEPTH instead of recursing on.
+  tinyxml2::XMLDocument doc;
+  if (doc.Parse(text.data(), text.size()) != tinyxml2::XML_SUCCESS) return "";
+  const tinyxml2::XMLElement* package = doc.RootElement();
+  if (!package || std::string(package->Name()) != "package") return "";
+  const tinyxml2::XMLElement* name = package->FirstChildElement("name");
+  if (!name || !name->GetText()) return "";
+  std::string value = name->GetText();
+  const auto space = [](char c) { return std::isspace(static_cast<unsigned char>(c)) != 0; };
+  value.erase(value.begin(), std::find_if_not(value.begin(), value.end(), space));
+  value.erase(std::find_if_not(value.rbegin(), value.rend(), space).base(), value.end());
+  // A package name is one word (rospack: [a-z][a-z0-9_]*; be lenient, but no spaces).
+  if (value.empty() || std::any_of(value.begin(), value.end(), space)) return "";
+  return value;
 }
 
 std::string enclosingPackageFolder(const std::string& start)

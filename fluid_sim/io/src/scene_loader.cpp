@@ -361,6 +361,15 @@ Pose readPose(const Entry& e)
   r.read("xyz", xyz);
   r.read("rpy", rpy);
   r.finish();
+  // A NaN or infinite angle makes the whole rotation NaN (the body vanishes).
+  const auto requireFinite = [&](const char* name, const Vec3d& v) {
+    if (v.allFinite()) return;
+    std::ostringstream os;
+    os << "must be finite, got [" << v.x() << ", " << v.y() << ", " << v.z() << "]";
+    throw ConfigError(childKey(e.key, name), os.str() + lineOf(e.node));
+  };
+  requireFinite("xyz", xyz);
+  requireFinite("rpy", rpy);
   return Pose::fromXyzRpy(xyz, rpy);
 }
 
@@ -586,6 +595,12 @@ SceneConfig readScene(const YAML::Node& root, LoadContext& ctx)
     const double n = readScalar<double>(*e);
     checkValue(*e, n >= 1.0 && n <= 1.0e12 && n == std::floor(n), "must be a whole number >= 1");
     s.max_boundary_particles = static_cast<std::size_t>(n);
+  }
+  if (auto e = r.get("max_fluid_particles"))
+  {
+    const double n = readScalar<double>(*e);
+    checkValue(*e, n >= 1.0 && n <= 1.0e12 && n == std::floor(n), "must be a whole number >= 1");
+    s.max_fluid_particles = static_cast<std::size_t>(n);
   }
   ctx.spacing = s.spacing;
   ctx.max_boundary_particles = s.max_boundary_particles;

@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <mutex>
 #include <set>
+#include <sstream>
 
 #include "fluid_sim/core/mesh_inside_index.h"
 #include "fluid_sim/io/file_util.h"
@@ -65,6 +66,27 @@ Vec3d toVec(const urdf::Vector3& v)
 Pose toPose(const urdf::Pose& p)
 {
   return Pose::fromTranslationQuaternion(toVec(p.position), p.rotation.w, p.rotation.x, p.rotation.y, p.rotation.z);
+}
+
+bool finite(const Pose& p)
+{
+  return p.translation.allFinite() && p.rotation.coeffs().allFinite();
+}
+
+std::string describe(const Pose& p)
+{
+  std::ostringstream os;
+  os << "xyz [" << p.translation.x() << ", " << p.translation.y() << ", " << p.translation.z() << "], quaternion (w "
+     << p.rotation.w() << ", x " << p.rotation.x() << ", y " << p.rotation.y() << ", z " << p.rotation.z() << ")";
+  return os.str();
+}
+
+/// A URDF origin (urdfdom refuses "nan" and "inf" in the text, but not what its own rpy
+/// conversion or a later product makes of huge finite values): finite, else an error naming
+/// the URDF and `where`.
+void requireFinite(const Pose& p, const std::string& source, const std::string& where)
+{
+  if (!finite(p)) throw ConfigError(source, where + ": origin is not finite (" + describe(p) + ")");
 }
 
 /// "link 'paddle', collision[1] (name 'blade')": where in the URDF a problem is.
@@ -149,6 +171,7 @@ UrdfRobot parseUrdf(const std::string& xml, const std::string& source, const std
       UrdfCollision e;
       e.name = c->name;
       e.origin = toPose(c->origin);
+      requireFinite(e.origin, source, "link '" + name + "', collision[" + std::to_string(out.collisions.size()) + "]");
       switch (c->geometry->type)
       {
         case urdf::Geometry::BOX:
@@ -208,8 +231,11 @@ UrdfRobot parseUrdf(const std::string& xml, const std::string& source, const std
     j.parent = joint->parent_link_name;
     j.child = joint->child_link_name;
     j.origin = toPose(joint->parent_to_joint_origin_transform);
+    requireFinite(j.origin, source, "joint '" + name + "'");
     const Vec3d axis = toVec(joint->axis);
-    j.axis = axis.norm() > 0.0 ? axis.normalized() : Vec3d::UnitX();
+    const double axis_norm = axis.stableNorm();
+    if (!std::isfinite(axis_norm)) throw ConfigError(source, "joint '" + name + "': axis is not a finite direction");
+    j.axis = axis_norm > 0.0 ? Vec3d(axis / axis_norm) : Vec3d::UnitX();
     if (joint->limits && (j.type == UrdfJointType::Revolute || j.type == UrdfJointType::Prismatic))
     {
       j.has_limits = joint->limits->lower < joint->limits->upper;
@@ -221,6 +247,8 @@ UrdfRobot parseUrdf(const std::string& xml, const std::string& source, const std
       j.mimic = joint->mimic->joint_name;
       j.mimic_multiplier = joint->mimic->multiplier;
       j.mimic_offset = joint->mimic->offset;
+      if (!std::isfinite(j.mimic_multiplier) || !std::isfinite(j.mimic_offset))
+        throw ConfigError(source, "joint '" + name + "': mimic multiplier and offset must be finite");
     }
     robot.joints.push_back(j);
   }
@@ -267,6 +295,9 @@ std::map<std::string, Pose> linkPoses(const UrdfRobot& robot, const JointPositio
   };
   std::map<std::string, Pose> poses;
   if (robot.root_link.empty()) return poses;
+  if (!finite(root_pose))
+    throw ConfigError(robot.source,
+                      "root link '" + robot.root_link + "': pose is not finite (" + describe(root_pose) + ")");
   poses[robot.root_link] = root_pose;
   // Breadth first from the root: a child's pose follows its parent's.
   std::vector<std::string> frontier = {robot.root_link};
@@ -288,6 +319,10 @@ std::map<std::string, Pose> linkPoses(const UrdfRobot& robot, const JointPositio
                               " lies outside its limits [" + std::to_string(j.lower) + ", " + std::to_string(j.upper) +
                               "]; used as given");
         poses[j.child] = poses[parent] * j.origin * motion;
+        // Finite origins and positions can still add up to infinity along a chain.
+        if (!finite(poses[j.child]))
+          throw ConfigError(robot.source, "link '" + j.child + "': its pose (through joint '" + j.name + "' at " +
+                                              std::to_string(q) + ") is not finite (" + describe(poses[j.child]) + ")");
         next.push_back(j.child);
       }
     frontier.swap(next);

@@ -6,7 +6,10 @@
 //   services         reset / pause / step and dynamic_reconfigure.
 #include "fluid_sim/ros/fluid_sim_node.h"
 
+#include <functional>
 #include <map>
+#include <mutex>
+#include <string>
 
 #include <tbb/global_control.h>
 
@@ -29,17 +32,34 @@ struct FluidSimNode::Impl
   Publishers publishers{opt};
   SolverLoop loop{opt, links, publishers};
   Services services{loop, publishers};
+  std::function<void(int)> on_finished;  // set before start()
+  // Orders start()'s launch of the threads with stop(): once stop() has begun, none is launched.
+  std::mutex lifecycle;
+  bool stopped = false;  // under `lifecycle`
 
-  Impl(ros::NodeHandle n, ros::NodeHandle p) : nh(n), pnh(p) {}
+  Impl(ros::NodeHandle n, ros::NodeHandle p) : nh(n), pnh(p)
+  {
+    // A thread that died of an exception (already logged): the run ends with code 1.
+    // The other thread is told to stop too (the nodelet then stays loaded, idle).
+    loop.onFailure([this](const std::string&) {
+      publishers.requestStop();
+      if (on_finished) on_finished(1);
+    });
+    publishers.onFailure([this](const std::string&) {
+      loop.requestStop();
+      if (on_finished) on_finished(1);
+    });
+  }
 
   bool start()
   {
-    opt = readNodeOptions(pnh);
+    const NodeParameters params = readNodeParameters(pnh);
+    opt = readNodeOptions(params);
     publishers.setMaxPoints(static_cast<std::size_t>(opt.max_points));
     if (opt.threads > 0)
       threads = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
                                                       static_cast<std::size_t>(opt.threads));
-    SceneConfig scene = readScene(pnh);
+    SceneConfig scene = readScene(params);
     std::vector<BoundaryConfig> link_bodies = readRobotLinks(nh, pnh, opt, scene);
     loop.setScene(std::move(scene), std::move(link_bodies));
     links.listen(nh);
@@ -56,6 +76,10 @@ struct FluidSimNode::Impl
 
     std::vector<std::string> bodies;
     for (std::size_t k = 0; k < sim.numBodies(); ++k) bodies.push_back(sim.body(k).name);
+    // The threads start only if stop() has not begun: a nodelet unloaded while start() was
+    // still building must not get threads launched after its stop() returned.
+    std::lock_guard<std::mutex> lock(lifecycle);
+    if (stopped) return false;
     publishers.advertise(pnh, bodies);
     services.advertise(pnh, opt);
     publishers.start();
@@ -65,7 +89,10 @@ struct FluidSimNode::Impl
 
   void stop()
   {
-    if (!loop.requestStop()) return;
+    loop.requestStop();  // also ends a start() waiting for tf
+    std::lock_guard<std::mutex> lock(lifecycle);
+    if (stopped) return;
+    stopped = true;
     publishers.requestStop();
     loop.join();
     publishers.join();
@@ -92,6 +119,7 @@ void FluidSimNode::stop()
 
 void FluidSimNode::onFinished(std::function<void(int)> callback)
 {
+  impl_->on_finished = callback;
   impl_->loop.onFinished(std::move(callback));
 }
 

@@ -1,6 +1,7 @@
 // fluid_sim_node: loads, builds, spins (README "The ROS node"). Exit codes: 0 done (or shut
-// down), 1 bad configuration (the error names it), 3 the simulation became unstable in a run
-// with ~stop_after.
+// down), 1 bad configuration (the error names it) or a solver / publisher thread that stopped on
+// an exception (logged with ROS_FATAL, naming the cause), 3 the simulation became unstable in a
+// run with ~stop_after.
 #include <atomic>
 #include <cstdio>
 
@@ -29,6 +30,11 @@ int main(int argc, char** argv)
   {
     ROS_FATAL("fluid_sim: %s", e.what());
     std::fprintf(stderr, "fluid_sim: error: %s\n", e.what());
+    return 1;
+  }
+  catch (...)
+  {
+    ROS_FATAL("fluid_sim: start-up stopped on an exception that is not a std::exception");
     return 1;
   }
   ros::waitForShutdown();

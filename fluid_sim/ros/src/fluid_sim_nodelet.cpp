@@ -38,6 +38,10 @@ private:
       {
         NODELET_FATAL("fluid_sim: %s", e.what());
       }
+      catch (...)
+      {
+        NODELET_FATAL("fluid_sim: start-up stopped on an exception that is not a std::exception");
+      }
     });
   }
 

@@ -23,7 +23,22 @@ std::optional<Pose> LinkPoses::lookup(const std::string& link, const ros::Time& 
 {
   try
   {
-    return toPose(buffer_.lookupTransform(opt_.fixed_frame, link, stamp).transform);
+    const Pose pose = toPose(buffer_.lookupTransform(opt_.fixed_frame, link, stamp).transform);
+    // tf2 refuses NaN on input but not infinity, and interpolating infinities gives NaN: such a
+    // pose counts as none (the link keeps its last good one).
+    if (!pose.translation.allFinite() || !pose.rotation.coeffs().allFinite())
+    {
+      if (why)
+      {
+        std::ostringstream os;
+        os << "the transform is not finite (translation [" << pose.translation.x() << ", " << pose.translation.y()
+           << ", " << pose.translation.z() << "], rotation (w " << pose.rotation.w() << ", x " << pose.rotation.x()
+           << ", y " << pose.rotation.y() << ", z " << pose.rotation.z() << "))";
+        *why = os.str();
+      }
+      return std::nullopt;
+    }
+    return pose;
   }
   catch (const tf2::TransformException& e)
   {

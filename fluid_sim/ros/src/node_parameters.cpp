@@ -1,11 +1,20 @@
 #include "fluid_sim/ros/node_parameters.h"
 
 #include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <limits>
+#include <sstream>
 
 #include <ros/console.h>
 #include <ros/package.h>
 #include <ros/this_node.h>
+#include <yaml-cpp/yaml.h>
 
+#include "fluid_sim/io/file_util.h"
+#include "fluid_sim/io/resource_resolver.h"
 #include "fluid_sim/io/scene_loader.h"
 #include "fluid_sim/io/urdf_loader.h"
 #include "fluid_sim/ros/fluid_sim_node.h"
@@ -18,62 +27,286 @@ namespace ros_bridge
 const std::set<std::string>& nodeKeys()
 {
   static const std::set<std::string> keys = {
-      "robot_description_param", "fixed_frame", "links", "container_links", "real_time_factor", "publish_rate",
-      "max_points", "tf_delay", "tf_wait_timeout", "stop_after", "threads", "publish_boundary",
+      "scene_file", "robot_description_param", "fixed_frame", "links", "container_links", "real_time_factor",
+      "publish_rate", "max_points", "tf_delay", "tf_wait_timeout", "stop_after", "threads", "publish_boundary",
       // dynamic_reconfigure (cfg/FluidSim.cfg)
       "density_error", "divergence_error", "min_iterations", "max_iterations", "warm_start", "viscosity_model",
       "viscosity_coefficient", "boundary_viscosity", "groups"};
   return keys;
 }
 
-NodeOptions readNodeOptions(const ros::NodeHandle& pnh)
+namespace
+{
+std::string number(double v)
+{
+  std::ostringstream os;
+  os << v;
+  return os.str();
+}
+
+bool realTimeFactorOk(double rtf)
+{
+  return rtf == 0.0 || (rtf >= ranges::kMinRealTimeFactor && rtf <= ranges::kMaxRealTimeFactor);
+}
+
+const std::string kRealTimeFactorRange = "must be 0 (as fast as it can) or in [" + number(ranges::kMinRealTimeFactor) +
+                                         ", " + number(ranges::kMaxRealTimeFactor) + "]";
+}  // namespace
+
+void checkNodeOptions(const NodeOptions& opt, const std::string& ns)
+{
+  auto bad = [&](const std::string& key, double value, const std::string& why) {
+    throw StartupError("parameter " + ns + "/" + key + " = " + number(value) + ": " + why);
+  };
+  // Written as !(in range) so that NaN is refused too.
+  auto range = [&](const std::string& key, double value, double lo, double hi, const std::string& unit) {
+    if (!(value >= lo && value <= hi))
+      bad(key, value, "out of range [" + number(lo) + ", " + number(hi) + "]" + (unit.empty() ? "" : " " + unit));
+  };
+  if (opt.fixed_frame.empty()) throw StartupError("parameter " + ns + "/fixed_frame: must not be empty");
+  if (!realTimeFactorOk(opt.real_time_factor)) bad("real_time_factor", opt.real_time_factor, kRealTimeFactorRange);
+  range("publish_rate", opt.publish_rate, ranges::kMinPublishRate, ranges::kMaxPublishRate, "Hz");
+  range("max_points", opt.max_points, 0, ranges::kMaxPoints, "(0 = all)");
+  range("tf_delay", opt.tf_delay, 0.0, ranges::kMaxTfDelay, "s");
+  range("tf_wait_timeout", opt.tf_wait_timeout, 0.0, ranges::kMaxTfWaitTimeout, "s (0 = wait for ever)");
+  range("stop_after", opt.stop_after, 0.0, ranges::kMaxStopAfter, "s (0 = run until shut down)");
+  range("threads", opt.threads, 0, ranges::kMaxThreads, "(0 = all cores)");
+}
+
+std::vector<std::string> checkReconfigure(fluid_sim::FluidSimConfig& requested,
+                                          const fluid_sim::FluidSimConfig& current)
+{
+  std::vector<std::string> warnings;
+  auto refuse = [&](const std::string& key, double value, const std::string& why, double kept) {
+    warnings.push_back("dynamic_reconfigure: " + key + " = " + number(value) + " refused (" + why + "); keeping " +
+                       number(kept));
+  };
+  auto finite = [&](const std::string& key, double& value, double kept) {
+    if (std::isfinite(value)) return;
+    refuse(key, value, "not a finite number", kept);
+    value = kept;
+  };
+  if (!realTimeFactorOk(requested.real_time_factor))
+  {
+    refuse("real_time_factor", requested.real_time_factor, kRealTimeFactorRange, current.real_time_factor);
+    requested.real_time_factor = current.real_time_factor;
+  }
+  if (!(requested.publish_rate >= ranges::kMinPublishRate && requested.publish_rate <= ranges::kMaxPublishRate))
+  {
+    refuse("publish_rate", requested.publish_rate,
+           "must be in [" + number(ranges::kMinPublishRate) + ", " + number(ranges::kMaxPublishRate) + "] Hz",
+           current.publish_rate);
+    requested.publish_rate = current.publish_rate;
+  }
+  if (requested.max_points < 0 || requested.max_points > ranges::kMaxPoints)
+  {
+    refuse("max_points", requested.max_points, "must be in [0, " + number(ranges::kMaxPoints) + "]",
+           current.max_points);
+    requested.max_points = current.max_points;
+  }
+  finite("density_error", requested.density_error, current.density_error);
+  finite("divergence_error", requested.divergence_error, current.divergence_error);
+  finite("viscosity_coefficient", requested.viscosity_coefficient, current.viscosity_coefficient);
+  finite("boundary_viscosity", requested.boundary_viscosity, current.boundary_viscosity);
+  return warnings;
+}
+
+namespace
+{
+XmlRpc::XmlRpcValue toParameter(const YAML::Node& n)
+{
+  XmlRpc::XmlRpcValue v;
+  switch (n.Type())
+  {
+    case YAML::NodeType::Scalar:
+    {
+      const std::string& text = n.Scalar();
+      if (n.Tag() == "!") return XmlRpc::XmlRpcValue(text);  // quoted: a string
+      if (text == "true" || text == "True" || text == "TRUE") return XmlRpc::XmlRpcValue(true);
+      if (text == "false" || text == "False" || text == "FALSE") return XmlRpc::XmlRpcValue(false);
+      errno = 0;
+      char* end = nullptr;
+      const long long i = std::strtoll(text.c_str(), &end, 10);
+      if (!text.empty() && *end == '\0' && errno == 0 && i >= std::numeric_limits<int>::min() &&
+          i <= std::numeric_limits<int>::max())
+        return XmlRpc::XmlRpcValue(static_cast<int>(i));
+      double d = 0.0;
+      if (YAML::convert<double>::decode(n, d)) return XmlRpc::XmlRpcValue(d);
+      return XmlRpc::XmlRpcValue(text);
+    }
+    case YAML::NodeType::Sequence:
+      v.setSize(static_cast<int>(n.size()));
+      for (std::size_t k = 0; k < n.size(); ++k) v[static_cast<int>(k)] = toParameter(n[k]);
+      return v;
+    case YAML::NodeType::Map:
+      for (const auto& kv : n) v[kv.first.as<std::string>()] = toParameter(kv.second);
+      return v;
+    default:
+      return v;  // null: invalid, which the scene YAML writes as null
+  }
+}
+
+/// Typed reads from the parameter map; a value of the wrong type is an error naming it.
+class ParameterReader
+{
+public:
+  explicit ParameterReader(const NodeParameters& p) : p_(p) {}
+
+  template <typename T>
+  void read(const std::string& key, T& out) const
+  {
+    auto& values = const_cast<XmlRpc::XmlRpcValue&>(p_.values);  // accessors are non-const; nothing is changed
+    if (values.getType() != XmlRpc::XmlRpcValue::TypeStruct || !values.hasMember(key)) return;
+    XmlRpc::XmlRpcValue& v = values[key];
+    if (!convert(v, out)) bad(key, v);
+  }
+
+private:
+  static bool convert(XmlRpc::XmlRpcValue& v, std::string& out)
+  {
+    if (v.getType() != XmlRpc::XmlRpcValue::TypeString) return false;
+    out = static_cast<std::string>(v);
+    return true;
+  }
+  static bool convert(XmlRpc::XmlRpcValue& v, double& out)
+  {
+    if (v.getType() == XmlRpc::XmlRpcValue::TypeDouble)
+      out = static_cast<double>(v);
+    else if (v.getType() == XmlRpc::XmlRpcValue::TypeInt)
+      out = static_cast<int>(v);
+    else
+      return false;
+    return true;
+  }
+  static bool convert(XmlRpc::XmlRpcValue& v, int& out)
+  {
+    if (v.getType() != XmlRpc::XmlRpcValue::TypeInt) return false;
+    out = static_cast<int>(v);
+    return true;
+  }
+  static bool convert(XmlRpc::XmlRpcValue& v, bool& out)
+  {
+    if (v.getType() != XmlRpc::XmlRpcValue::TypeBoolean) return false;
+    out = static_cast<bool>(v);
+    return true;
+  }
+  static bool convert(XmlRpc::XmlRpcValue& v, std::vector<std::string>& out)
+  {
+    if (v.getType() != XmlRpc::XmlRpcValue::TypeArray) return false;
+    std::vector<std::string> list;
+    for (int k = 0; k < v.size(); ++k)
+    {
+      if (v[k].getType() != XmlRpc::XmlRpcValue::TypeString) return false;
+      list.push_back(static_cast<std::string>(v[k]));
+    }
+    out = list;
+    return true;
+  }
+
+  [[noreturn]] void bad(const std::string& key, const XmlRpc::XmlRpcValue& v) const
+  {
+    throw StartupError("parameter " + p_.ns + "/" + key + ": a value of the wrong type (" + toYaml(v) + ")" +
+                       (p_.scene_file.empty() ? "" : " (parameters and " + p_.scene_file + ")"));
+  }
+
+  const NodeParameters& p_;
+};
+}  // namespace
+
+XmlRpc::XmlRpcValue yamlToParameters(const std::string& yaml_text)
+{
+  try
+  {
+    return toParameter(YAML::Load(yaml_text));
+  }
+  catch (const YAML::Exception& e)
+  {
+    throw std::invalid_argument(e.what());
+  }
+}
+
+NodeParameters readNodeParameters(const ros::NodeHandle& pnh)
+{
+  NodeParameters p;
+  p.ns = pnh.getNamespace();
+  XmlRpc::XmlRpcValue params;
+  if (!pnh.getParam(p.ns, params) || params.getType() != XmlRpc::XmlRpcValue::TypeStruct)
+    params = XmlRpc::XmlRpcValue();
+  std::string uri;
+  if (params.getType() == XmlRpc::XmlRpcValue::TypeStruct && params.hasMember("scene_file"))
+  {
+    if (params["scene_file"].getType() != XmlRpc::XmlRpcValue::TypeString)
+      throw StartupError("parameter " + p.ns + "/scene_file: must be a string (a file path or package:// URI)");
+    uri = static_cast<std::string>(params["scene_file"]);
+  }
+  if (!uri.empty())
+  {
+    try
+    {
+      p.scene_file = io::resolveResource(uri, "", [](const std::string& pkg) { return ros::package::getPath(pkg); });
+      XmlRpc::XmlRpcValue file;
+      try
+      {
+        file = yamlToParameters(io::readTextFile(p.scene_file, "scene file"));
+      }
+      catch (const std::invalid_argument& e)
+      {
+        throw StartupError(p.scene_file + ": not valid YAML: " + e.what());
+      }
+      if (file.getType() != XmlRpc::XmlRpcValue::TypeStruct)
+        throw StartupError(p.scene_file + ": a scene file is a map of keys (README, Scene keys)");
+      p.values = file;
+    }
+    catch (const ConfigError& e)
+    {
+      throw StartupError("parameter " + p.ns + "/scene_file: " + e.what());
+    }
+  }
+  if (params.getType() == XmlRpc::XmlRpcValue::TypeStruct)
+    for (auto it = params.begin(); it != params.end(); ++it) p.values[it->first] = it->second;
+  return p;
+}
+
+NodeOptions readNodeOptions(const NodeParameters& params)
 {
   NodeOptions opt;
-  auto param = [&](const std::string& name, auto& value) { pnh.param(name, value, value); };
-  param("robot_description_param", opt.robot_description_param);
-  param("fixed_frame", opt.fixed_frame);
-  param("links", opt.links);
-  param("container_links", opt.container_links);
-  param("real_time_factor", opt.real_time_factor);
-  param("publish_rate", opt.publish_rate);
-  param("max_points", opt.max_points);
-  param("tf_delay", opt.tf_delay);
-  param("tf_wait_timeout", opt.tf_wait_timeout);
-  param("stop_after", opt.stop_after);
-  param("threads", opt.threads);
-  param("publish_boundary", opt.publish_boundary);
-  const std::string ns = pnh.getNamespace();
-  auto bad = [&](const std::string& key, const std::string& why) {
-    throw StartupError("parameter " + ns + "/" + key + ": " + why);
-  };
-  if (opt.fixed_frame.empty()) bad("fixed_frame", "must not be empty");
-  if (!(opt.real_time_factor >= 0.0)) bad("real_time_factor", "must be >= 0 (0 = as fast as possible)");
-  if (!(opt.publish_rate > 0.0)) bad("publish_rate", "must be > 0 Hz");
-  if (opt.max_points < 0) bad("max_points", "must be >= 0 (0 = all)");
-  if (!(opt.tf_delay >= 0.0)) bad("tf_delay", "must be >= 0 s");
-  if (!(opt.tf_wait_timeout >= 0.0)) bad("tf_wait_timeout", "must be >= 0 s (0 = wait for ever)");
-  if (!(opt.stop_after >= 0.0)) bad("stop_after", "must be >= 0 s (0 = run until shut down)");
-  if (opt.threads < 0) bad("threads", "must be >= 0 (0 = all cores)");
+  const ParameterReader r(params);
+  r.read("robot_description_param", opt.robot_description_param);
+  r.read("fixed_frame", opt.fixed_frame);
+  r.read("links", opt.links);
+  r.read("container_links", opt.container_links);
+  r.read("real_time_factor", opt.real_time_factor);
+  r.read("publish_rate", opt.publish_rate);
+  r.read("max_points", opt.max_points);
+  r.read("tf_delay", opt.tf_delay);
+  r.read("tf_wait_timeout", opt.tf_wait_timeout);
+  r.read("stop_after", opt.stop_after);
+  r.read("threads", opt.threads);
+  r.read("publish_boundary", opt.publish_boundary);
+  checkNodeOptions(opt, params.ns);
   return opt;
 }
 
-SceneConfig readScene(const ros::NodeHandle& pnh)
+SceneConfig readScene(const NodeParameters& params)
 {
-  XmlRpc::XmlRpcValue params;
-  const std::string ns = pnh.getNamespace();
-  if (!pnh.getParam(ns, params)) params = XmlRpc::XmlRpcValue();
   std::string yaml;
   try
   {
-    yaml = sceneYaml(params, nodeKeys());
+    yaml = sceneYaml(params.values, nodeKeys());
   }
   catch (const std::invalid_argument& e)
   {
-    throw StartupError("parameter " + ns + "/" + e.what());
+    throw StartupError("parameter " + params.ns + "/" + e.what());
   }
   io::SceneLoadOptions load;
   load.packages = [](const std::string& pkg) { return ros::package::getPath(pkg); };
-  const std::string source = "private parameters of " + ros::this_node::getName();
+  std::string source = "private parameters of " + ros::this_node::getName();
+  if (!params.scene_file.empty())
+  {
+    // Relative mesh, URDF and PLY names resolve against the scene file's folder, as for the runner.
+    load.base_dir = std::filesystem::path(params.scene_file).parent_path().string();
+    source = params.scene_file + " (~scene_file, with the " + source + ")";
+  }
   SceneConfig scene;
   try
   {

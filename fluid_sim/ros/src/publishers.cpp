@@ -4,6 +4,8 @@
 
 #include <geometry_msgs/WrenchStamped.h>
 
+#include "fluid_sim/ros/thread_guard.h"
+
 namespace fluid_sim
 {
 namespace ros_bridge
@@ -48,6 +50,12 @@ void WrenchMeans::take(const Simulation& sim, std::vector<fluid_msgs::ContactWre
 // ------------------------------------------------------------------------------ Publishers
 Publishers::Publishers(const NodeOptions& opt) : opt_(opt) {}
 
+Publishers::~Publishers()
+{
+  requestStop();
+  join();
+}
+
 void Publishers::advertise(ros::NodeHandle& pnh, const std::vector<std::string>& body_names)
 {
   pub_particles_ = pnh.advertise<sensor_msgs::PointCloud2>("particles", 2);
@@ -80,7 +88,10 @@ void Publishers::handOver()
 
 void Publishers::start()
 {
-  thread_ = std::thread([this] { run(); });
+  thread_ = std::thread([this] {
+    runGuarded(
+        "publisher", [this] { run(); }, on_failure_);
+  });
 }
 
 void Publishers::requestStop()

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 
+#include <ros/console.h>
+
 #include "fluid_sim/ros/messages.h"
 
 namespace fluid_sim
@@ -22,6 +24,7 @@ void Services::advertise(ros::NodeHandle& pnh, const NodeOptions& opt)
   cfg.publish_rate = opt.publish_rate;
   cfg.real_time_factor = opt.real_time_factor;
   cfg.max_points = opt.max_points;
+  current_ = cfg;
   reconfigure_->updateConfig(cfg);
   reconfigure_->setCallback([this](fluid_sim::FluidSimConfig& c, uint32_t) { onReconfigure(c); });
 }
@@ -58,8 +61,10 @@ bool Services::onStep(fluid_msgs::StepSimulation::Request& req, fluid_msgs::Step
   return true;
 }
 
-void Services::onReconfigure(const fluid_sim::FluidSimConfig& config)
+void Services::onReconfigure(fluid_sim::FluidSimConfig& config)
 {
+  for (const std::string& w : checkReconfigure(config, current_)) ROS_WARN("%s", w.c_str());
+  current_ = config;
   publishers_.setMaxPoints(static_cast<std::size_t>(std::max(0, config.max_points)));
   loop_.reconfigure(config);
 }

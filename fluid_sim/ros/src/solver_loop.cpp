@@ -9,6 +9,7 @@
 
 #include "fluid_sim/ros/fluid_sim_node.h"
 #include "fluid_sim/ros/messages.h"
+#include "fluid_sim/ros/thread_guard.h"
 
 namespace fluid_sim
 {
@@ -25,6 +26,12 @@ double msSince(std::chrono::steady_clock::time_point t0)
 SolverLoop::SolverLoop(const NodeOptions& opt, LinkPoses& links, Publishers& publishers)
     : opt_(opt), links_(links), publishers_(publishers)
 {
+}
+
+SolverLoop::~SolverLoop()
+{
+  requestStop();
+  join();
 }
 
 void SolverLoop::setScene(SceneConfig scene, std::vector<BoundaryConfig> link_bodies)
@@ -68,6 +75,7 @@ void SolverLoop::build(const std::map<std::string, Pose>& poses)
     body_ranges_.emplace_back(b.first_particle, b.num_particles);
   }
   wrench_means_.reset(nb);
+  sim_time_ = sim_->time();  // build() runs before start() or under cmd_mutex_ (reset)
   boundary_dirty_ = true;
   reanchor_ = true;
   rtf_sim0_ = 0.0;
@@ -78,7 +86,12 @@ void SolverLoop::build(const std::map<std::string, Pose>& poses)
 void SolverLoop::start()
 {
   run_start_ = WallClock::now();
-  thread_ = std::thread([this] { run(); });
+  // Nothing thrown in the solver thread (a ros::Duration out of range, bad_alloc, ...) may end
+  // the process unexplained: it is logged and reported (the node then shuts down).
+  thread_ = std::thread([this] {
+    runGuarded(
+        "solver", [this] { run(); }, on_failure_);
+  });
 }
 
 bool SolverLoop::requestStop()
@@ -143,7 +156,8 @@ CommandResult SolverLoop::step(unsigned steps)
                                      [&] { return steps_done_counter_ >= target || stopping_.load() || !paused_; });
   r.success = done && steps_done_counter_ >= target;
   r.message = r.success ? last_status_ : "interrupted before all steps were taken";
-  r.sim_time = sim_ ? sim_->time() : 0.0;  // read under cmd_mutex_: the solver holds it while stepping on request
+  // Not sim_->time(): once resumed, the solver steps without cmd_mutex_ (a copy written under it).
+  r.sim_time = sim_time_;
   return r;
 }
 
@@ -298,10 +312,17 @@ void SolverLoop::run()
     if (stopping_) break;
 
     std::unique_lock<std::mutex> step_lock(cmd_mutex_, std::defer_lock);
-    if (stepping_on_request) step_lock.lock();  // a step service call reads sim_time under it
+    if (stepping_on_request) step_lock.lock();  // a step service call waits for these steps under it
     links_.poseBodies(*sim_, pose_stamp, jump);
     const StepReport rep = sim_->step();
-    afterStep(rep, coupled);
+    // What the step service reads, written under the lock (the only writer is this thread).
+    if (!step_lock.owns_lock()) step_lock.lock();
+    last_status_ = rep.unstable                                            ? "unstable: " + rep.reason
+                   : (!rep.density_converged || !rep.divergence_converged) ? "not_converged"
+                                                                           : "ok";
+    sim_time_ = sim_->time();
+    if (!stepping_on_request) step_lock.unlock();
+    afterStep(rep, coupled);  // its frame goes out before a step service call returns
     if (stepping_on_request)
     {
       --steps_requested_;
@@ -312,7 +333,6 @@ void SolverLoop::run()
 
     if (rep.unstable)
     {
-      last_status_ = "unstable: " + rep.reason;
       ROS_ERROR("simulation unstable at t = %.4f s: %s. Paused; call ~reset to start again.", rep.time,
                 rep.reason.c_str());
       publishFrame(rep, coupled);
@@ -345,9 +365,6 @@ void SolverLoop::afterStep(const StepReport& rep, bool coupled)
   sum_density_iterations_ += rep.density_iterations;
   sum_step_ms_ += rep.ms_total;
   last_report_ = rep;
-  last_status_ = rep.unstable                                            ? "unstable: " + rep.reason
-                 : (!rep.density_converged || !rep.divergence_converged) ? "not_converged"
-                                                                         : "ok";
   wrench_means_.add(*sim_, rep.dt);
 
   const double wall = std::chrono::duration<double>(WallClock::now() - rtf_wall0_).count();

@@ -266,6 +266,9 @@ struct SceneConfig
   /// Largest number of boundary particles one body may be sampled into; validate() refuses a
   /// body whose estimate (from its surface area and sample spacing) exceeds it, before sampling.
   std::size_t max_boundary_particles = 2000000;  //                    key: max_boundary_particles
+  /// Largest number of fluid particles the scene may start with (lattice points of every box
+  /// block before trimming, plus explicit particles); validate() refuses more, before any is made.
+  std::size_t max_fluid_particles = 20000000;  //                      key: max_fluid_particles
   /// Notes from loading the scene that are not errors (a URDF link without collision geometry
   /// skipped, an open mesh used as a solid, degenerate triangles skipped), each naming its file.
   /// Set by io; the caller shows them (the runner prints them to stderr).

@@ -113,7 +113,8 @@ public:
   /// time(), the start of that step. Its velocity follows from the change of pose since the
   /// previous one (zero for the first); a step without a new pose holds it still (zero velocity). `jump` = true places
   /// it without deriving a velocity (velocity zero): for a pose after a pause or a reset, which is not a motion over
-  /// one step. `index` from bodyIndex().
+  /// one step. `index` from bodyIndex(). A pose with a NaN or infinite component throws
+  /// std::invalid_argument naming the body (which keeps its last pose).
   void setBodyPose(std::size_t index, const Pose& pose, bool jump = false);
   /// Index of the body with this name; throws ConfigError if there is none.
   std::size_t bodyIndex(const std::string& name) const;

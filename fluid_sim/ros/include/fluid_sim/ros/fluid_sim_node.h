@@ -41,8 +41,9 @@ public:
   /// Stops the threads (idempotent). Called by the destructor.
   void stop();
 
-  /// Called once from the solver thread when the run ends by itself: `stop_after` reached
-  /// (code 0) or the simulation became unstable in a run with `stop_after` (code 3).
+  /// Called from the solver (or publisher) thread when the run ends by itself: `stop_after`
+  /// reached (code 0), the simulation became unstable in a run with `stop_after` (code 3), or
+  /// the solver or publisher thread stopped on an exception, logged with ROS_FATAL (code 1).
   void onFinished(std::function<void(int code)> callback);
 
 private:

@@ -32,7 +32,7 @@ public:
   void listen(ros::NodeHandle& nh);
 
   /// Pose of `link` in the fixed frame at `stamp` (ros::Time(0): the newest); nullopt if tf
-  /// cannot give it, with the reason in `why`.
+  /// cannot give it or gives a NaN or infinite one, with the reason in `why`.
   std::optional<Pose> lookup(const std::string& link, const ros::Time& stamp, std::string* why);
 
   /// Waits until tf knows every one of `links` in the fixed frame; their poses go into `poses`.
@@ -51,6 +51,12 @@ public:
   /// simulated instant, or ros::Time(0) for the newest poses. `jump`: place without deriving
   /// velocities. A link tf does not know stays where it was (with a throttled warning).
   void poseBodies(Simulation& sim, const ros::Time& stamp, bool jump);
+
+  /// The tf buffer (tests fill it directly).
+  tf2_ros::Buffer& buffer()
+  {
+    return buffer_;
+  }
 
   /// Number of links posed from tf.
   std::size_t size() const

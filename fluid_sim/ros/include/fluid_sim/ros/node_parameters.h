@@ -9,7 +9,9 @@
 #include <vector>
 
 #include <ros/node_handle.h>
+#include <xmlrpcpp/XmlRpcValue.h>
 
+#include "fluid_sim/FluidSimConfig.h"
 #include "fluid_sim/core/scene_config.h"
 
 namespace fluid_sim
@@ -33,17 +35,64 @@ struct NodeOptions
   bool publish_boundary = true;
 };
 
+/// The checked ranges of the node's numeric parameters (README "The ROS node"). Values outside
+/// them would make ros::Duration throw in the solver thread (a real-time factor of 1e-12 turns
+/// a 4 ms step into 4e9 s of ROS time) or allocate without bound.
+namespace ranges
+{
+constexpr double kMinRealTimeFactor = 1e-3;  // besides 0 (as fast as it can)
+constexpr double kMaxRealTimeFactor = 100.0;
+constexpr double kMinPublishRate = 0.1;  // Hz
+constexpr double kMaxPublishRate = 1000.0;
+constexpr int kMaxPoints = 100000000;
+constexpr double kMaxTfDelay = 30.0;           // s
+constexpr double kMaxTfWaitTimeout = 86400.0;  // s
+constexpr double kMaxStopAfter = 1.0e6;        // s of simulated time
+constexpr int kMaxThreads = 1024;
+}  // namespace ranges
+
+/// Checks the ranges of `opt`; throws StartupError naming the parameter (under namespace `ns`)
+/// and its value.
+void checkNodeOptions(const NodeOptions& opt, const std::string& ns);
+
+/// Checks a dynamic_reconfigure request (already clamped to the .cfg's ranges by the server,
+/// but a NaN passes that, and a real-time factor just above 0 is in range there): each value
+/// out of the node's range is set back to its value in `current`, and one warning per refused
+/// value (naming it and the value) is returned.
+std::vector<std::string> checkReconfigure(fluid_sim::FluidSimConfig& requested,
+                                          const fluid_sim::FluidSimConfig& current);
+
 /// Private parameters that are not scene keys: the node's options, and the values the
 /// dynamic_reconfigure server writes back into the private namespace.
 const std::set<std::string>& nodeKeys();
 
-/// Reads the node's options from `pnh` (defaults for absent ones) and checks their ranges.
-/// Throws StartupError naming the parameter.
-NodeOptions readNodeOptions(const ros::NodeHandle& pnh);
+/// The node's parameters in one map: the top-level keys of the scene file that ~scene_file
+/// names (if set), with the private parameters on top (a private parameter wins over the file).
+struct NodeParameters
+{
+  XmlRpc::XmlRpcValue values;  // a struct (or invalid when there is nothing at all)
+  std::string ns;              // the private namespace, e.g. /fluid_sim
+  std::string scene_file;      // the resolved path of ~scene_file; "" without one
+};
 
-/// The scene from the private parameters of `pnh` that are not in nodeKeys(), checked by the
-/// scene loader; its warnings are logged. Throws StartupError.
-SceneConfig readScene(const ros::NodeHandle& pnh);
+/// Reads the private parameters of `pnh` and the scene file named by ~scene_file (an absolute
+/// path, package://pkg/path or file:///path; read afresh at every start). Throws StartupError
+/// naming the parameter or the file.
+NodeParameters readNodeParameters(const ros::NodeHandle& pnh);
+
+/// The node's options from `params` (defaults for absent ones), type- and range-checked.
+/// Throws StartupError naming the parameter.
+NodeOptions readNodeOptions(const NodeParameters& params);
+
+/// The scene from the keys of `params` that are not in nodeKeys(), checked by the scene loader;
+/// relative file names in it resolve against the scene file's folder (the working directory
+/// without ~scene_file). Its warnings are logged. Throws StartupError.
+SceneConfig readScene(const NodeParameters& params);
+
+/// YAML text as parameter values, as `rosparam load` makes them (a quoted scalar stays a
+/// string; true/false are booleans, whole numbers int, other numbers double, .nan and .inf
+/// included). Throws std::invalid_argument for text that is not YAML.
+XmlRpc::XmlRpcValue yamlToParameters(const std::string& yaml_text);
 
 /// The robot's links as bodies (shapes in link frames, externally posed; containers marked
 /// inside) from the URDF in the parameter opt.robot_description_param of `nh`; empty when that

@@ -6,6 +6,7 @@
 
 #include <atomic>
 #include <condition_variable>
+#include <functional>
 #include <mutex>
 #include <string>
 #include <thread>
@@ -66,6 +67,17 @@ public:
   /// Clouds are in opt.fixed_frame. `opt` is read once by the node before any call below and
   /// must outlive this object.
   explicit Publishers(const NodeOptions& opt);
+  /// Stops and joins the publisher thread (a joinable thread must not be destroyed).
+  ~Publishers();
+  Publishers(const Publishers&) = delete;
+  Publishers& operator=(const Publishers&) = delete;
+
+  /// Called once from the publisher thread if something thrown there ended it (after it was
+  /// logged with ROS_FATAL), with the logged message.
+  void onFailure(std::function<void(const std::string&)> callback)
+  {
+    on_failure_ = std::move(callback);
+  }
 
   /// Advertises the topics in `pnh`, with one wrench/<name> topic per body.
   void advertise(ros::NodeHandle& pnh, const std::vector<std::string>& body_names);
@@ -102,6 +114,7 @@ private:
   void run();
 
   const NodeOptions& opt_;
+  std::function<void(const std::string&)> on_failure_;
   std::atomic<std::size_t> max_points_{0};
   ros::Publisher pub_particles_, pub_boundary_, pub_wrenches_, pub_stats_;
   std::vector<ros::Publisher> pub_link_wrench_;  // per body, wrench/<name>

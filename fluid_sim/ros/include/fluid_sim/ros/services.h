@@ -38,13 +38,16 @@ private:
   bool onReset(std_srvs::Trigger::Request& req, std_srvs::Trigger::Response& res);
   bool onPause(std_srvs::SetBool::Request& req, std_srvs::SetBool::Response& res);
   bool onStep(fluid_msgs::StepSimulation::Request& req, fluid_msgs::StepSimulation::Response& res);
-  void onReconfigure(const fluid_sim::FluidSimConfig& config);
+  /// Refuses values out of the node's ranges (checkReconfigure: set back, with a warning), then
+  /// hands the request on. `config` is what the server then reports.
+  void onReconfigure(fluid_sim::FluidSimConfig& config);
 
   SolverLoop& loop_;
   Publishers& publishers_;
   ros::ServiceServer srv_reset_, srv_pause_, srv_step_;
   std::unique_ptr<dynamic_reconfigure::Server<fluid_sim::FluidSimConfig>> reconfigure_;
   boost::recursive_mutex reconfigure_mutex_;
+  fluid_sim::FluidSimConfig current_;  // the settings last accepted (under reconfigure_mutex_)
 };
 
 }  // namespace ros_bridge

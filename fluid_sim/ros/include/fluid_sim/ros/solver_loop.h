@@ -44,6 +44,10 @@ class SolverLoop
 public:
   /// `opt` is read once by the node before any call below and must outlive the loop.
   SolverLoop(const NodeOptions& opt, LinkPoses& links, Publishers& publishers);
+  /// Stops and joins the solver thread (a joinable thread must not be destroyed).
+  ~SolverLoop();
+  SolverLoop(const SolverLoop&) = delete;
+  SolverLoop& operator=(const SolverLoop&) = delete;
 
   /// The scene without the robot and the robot's links (shapes in link frames); the live
   /// settings start from the node options.
@@ -65,6 +69,13 @@ public:
   void onFinished(std::function<void(int)> callback)
   {
     on_finished_ = std::move(callback);
+  }
+
+  /// Called once from the solver thread if something thrown there ended it (after it was
+  /// logged with ROS_FATAL), with the logged message.
+  void onFailure(std::function<void(const std::string&)> callback)
+  {
+    on_failure_ = std::move(callback);
   }
 
   /// True once requestStop() was called.
@@ -105,6 +116,7 @@ private:
   LinkPoses& links_;
   Publishers& publishers_;
   std::function<void(int)> on_finished_;
+  std::function<void(const std::string&)> on_failure_;
 
   // Scene and simulation. `base_scene_` has the scene's own bodies; link bodies are appended
   // with the poses tf gives at (re)start.
@@ -115,7 +127,9 @@ private:
   // Commands from service and reconfigure callbacks, applied by the solver thread between steps.
   std::mutex cmd_mutex_;
   std::condition_variable cmd_cv_;
-  bool paused_ = false;
+  // Written under cmd_mutex_ (the condition variable's predicates read it there); atomic so
+  // that the solver thread may read it without the lock (publishFrame).
+  std::atomic<bool> paused_{false};
   bool reset_requested_ = false;
   bool reset_done_ = false;
   std::string reset_error_;
@@ -146,7 +160,10 @@ private:
   std::vector<std::pair<std::size_t, std::size_t>> body_ranges_;  // boundary particles of each body
   WrenchMeans wrench_means_;
   StepReport last_report_;
+  // Written by the solver thread under cmd_mutex_ (after each step, on reset), read by the
+  // step service under it; the solver thread reads them without the lock.
   std::string last_status_ = "ok";
+  double sim_time_ = 0.0;                    // s, simulated time after the last step (a copy of sim_->time())
   WallClock::time_point last_paused_stats_;  // stats while paused: at most one a second
 
   // Run statistics (for the summary printed at the end).
