@@ -57,6 +57,13 @@ void SolverLoop::build(const std::map<std::string, Pose>& poses)
     b.pose = poses.at(b.name);
     scene.boundaries.push_back(std::move(b));
   }
+  // The poses are tf's newest now; the construction (the fill's relaxation: up to seconds) takes
+  // a while, during which the links move on. Simulated t = 0 is tied to this instant (see the
+  // anchoring in run()), not to the end of the construction, so that the first step finds the
+  // links where the water was placed around them. Anchored at the end instead, the demo's
+  // paddle, turning at 1.5 rad/s, jumped 0.3-0.5 rad through the settled water in its first step
+  // and every particle became NaN in the second.
+  built_at_ = ros::Time::now();
   try
   {
     auto next = std::make_unique<Simulation>(scene);
@@ -78,6 +85,7 @@ void SolverLoop::build(const std::map<std::string, Pose>& poses)
   sim_time_ = sim_->time();  // build() runs before start() or under cmd_mutex_ (reset)
   boundary_dirty_ = true;
   reanchor_ = true;
+  anchor_at_build_ = true;
   rtf_sim0_ = 0.0;
   rtf_wall0_ = WallClock::now();
 }
@@ -259,8 +267,25 @@ void SolverLoop::run()
         anchor_sim_ = sim_->time();
         // Simulated time anchor_sim_ is ROS time now; steps then trail ROS time by tf_delay (see
         // the pacing below), so tf holds poses on both sides of every instant looked up. An
-        // anchor before now could ask for poses older than tf has (a jump back and forth).
-        anchor_ros_ = ros::Time::now();
+        // anchor before now could ask for poses older than tf has (a jump back and forth); the
+        // one exception is a fresh build, anchored at the instant its poses were taken (see
+        // build()), while tf still holds that instant: the loop then catches up.
+        const ros::Time now = ros::Time::now();
+        anchor_ros_ = now;
+        if (anchor_at_build_ && !built_at_.isZero() && built_at_ <= now)
+        {
+          if ((now - built_at_).toSec() < kBuildAnchorLimit)
+          {
+            anchor_ros_ = built_at_;
+            catching_up_ = true;  // behind by the build's duration on purpose: not worth a warning
+          }
+          else
+            ROS_WARN(
+                "building the simulation took %.1f s, longer than tf keeps poses for the start: the links "
+                "jump to where they are now in the first step",
+                (now - built_at_).toSec());
+        }
+        anchor_at_build_ = false;
         reanchor_ = false;
         jump = true;
         next_publish_sim_ = sim_->time();
@@ -301,7 +326,8 @@ void SolverLoop::run()
       std::lock_guard<std::mutex> lock(cmd_mutex_);
       if (reset_requested_ || paused_ || reanchor_) continue;
       const double lag = (ros::Time::now() - due).toSec();
-      if (lag > 0.5)
+      if (lag <= 0.0) catching_up_ = false;  // the start's catch-up (see build()) is over
+      if (lag > 0.5 && !catching_up_)
         ROS_WARN_THROTTLE(10.0,
                           "cannot keep up with real_time_factor %g: %.2f s behind ROS time (achieving %.2f); "
                           "lower real_time_factor, coarsen the spacing, or give it more cores",

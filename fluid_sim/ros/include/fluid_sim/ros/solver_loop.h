@@ -136,7 +136,12 @@ private:
   unsigned steps_requested_ = 0;
   std::uint64_t steps_done_counter_ = 0;
   std::optional<fluid_sim::FluidSimConfig> pending_config_;
-  bool reanchor_ = true;  // pacing restarts from the current instants (start, resume, reset, rtf change)
+  bool reanchor_ = true;          // pacing restarts from the current instants (start, resume, reset, rtf change)
+  bool anchor_at_build_ = false;  // the next anchor is built_at_ (a fresh build), not now
+  ros::Time built_at_;            // ROS time at which build() took its poses
+  bool catching_up_ = false;      // behind ROS time since an anchor at built_at_, not yet caught up
+  // s; at most this far back (tf2's buffer keeps 10 s by default) the anchor may go to built_at_.
+  static constexpr double kBuildAnchorLimit = 8.0;
 
   // Live settings (reconfigurable).
   std::atomic<double> publish_rate_{30.0};     // Hz
