@@ -277,7 +277,7 @@ void SolverLoop::run()
           if ((now - built_at_).toSec() < kBuildAnchorLimit)
           {
             anchor_ros_ = built_at_;
-            catching_up_ = true;  // behind by the build's duration on purpose: not worth a warning
+            catch_up_ = (now - built_at_).toSec();  // behind by the build on purpose: not worth a warning
           }
           else
             ROS_WARN(
@@ -326,8 +326,10 @@ void SolverLoop::run()
       std::lock_guard<std::mutex> lock(cmd_mutex_);
       if (reset_requested_ || paused_ || reanchor_) continue;
       const double lag = (ros::Time::now() - due).toSec();
-      if (lag <= 0.0) catching_up_ = false;  // the start's catch-up (see build()) is over
-      if (lag > 0.5 && !catching_up_)
+      // Behind by no more than the build took (see build()): the start's catch-up, not a loop that
+      // cannot keep up; that one falls further behind and is warned about.
+      if (lag <= 0.0) catch_up_ = 0.0;
+      if (lag > 0.5 + catch_up_)
         ROS_WARN_THROTTLE(10.0,
                           "cannot keep up with real_time_factor %g: %.2f s behind ROS time (achieving %.2f); "
                           "lower real_time_factor, coarsen the spacing, or give it more cores",
