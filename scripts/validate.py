@@ -5,7 +5,7 @@ Runs the scenes of config/validation/ with the headless runner (fluid_sim_run), 
 each case is about from summary.json, stats.csv and the PLY frames, and writes CSV files and PNG
 plots to docs/validation/ and the report docs/validation.md.
 
-    /usr/bin/python3 scripts/validate.py                # the full suite (about 30-45 min on 2 cores)
+    /usr/bin/python3 scripts/validate.py                # the full suite (one to two hours on 2 cores)
     /usr/bin/python3 scripts/validate.py --quick        # the small CI versions (out/validation-quick/)
     /usr/bin/python3 scripts/validate.py --case 4       # one case (repeatable); the report keeps the others
     options: --runner PATH (default build/fluid_sim_run), --jobs N (runs at once, default: cores),
