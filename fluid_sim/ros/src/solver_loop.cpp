@@ -85,7 +85,6 @@ void SolverLoop::build(const std::map<std::string, Pose>& poses)
   sim_time_ = sim_->time();  // build() runs before start() or under cmd_mutex_ (reset)
   boundary_dirty_ = true;
   reanchor_ = true;
-  anchor_at_build_ = true;
   rtf_sim0_ = 0.0;
   rtf_wall0_ = WallClock::now();
 }
@@ -272,7 +271,7 @@ void SolverLoop::run()
         // build()), while tf still holds that instant: the loop then catches up.
         const ros::Time now = ros::Time::now();
         anchor_ros_ = now;
-        if (anchor_at_build_ && !built_at_.isZero() && built_at_ <= now)
+        if (!built_at_.isZero() && built_at_ <= now)
         {
           if ((now - built_at_).toSec() < kBuildAnchorLimit)
           {
@@ -285,7 +284,7 @@ void SolverLoop::run()
                 "jump to where they are now in the first step",
                 (now - built_at_).toSec());
         }
-        anchor_at_build_ = false;
+        built_at_ = ros::Time();  // used once: later anchors (resume, rtf change) are now
         reanchor_ = false;
         jump = true;
         next_publish_sim_ = sim_->time();

@@ -136,10 +136,9 @@ private:
   unsigned steps_requested_ = 0;
   std::uint64_t steps_done_counter_ = 0;
   std::optional<fluid_sim::FluidSimConfig> pending_config_;
-  bool reanchor_ = true;          // pacing restarts from the current instants (start, resume, reset, rtf change)
-  bool anchor_at_build_ = false;  // the next anchor is built_at_ (a fresh build), not now
-  ros::Time built_at_;            // ROS time at which build() took its poses
-  double catch_up_ = 0.0;         // s, how far behind ROS time an anchor at built_at_ started
+  bool reanchor_ = true;   // pacing restarts from the current instants (start, resume, reset, rtf change)
+  ros::Time built_at_;     // ROS time at which build() took its poses; zero once the anchor used it
+  double catch_up_ = 0.0;  // s, how far behind ROS time an anchor at built_at_ started
   // s; at most this far back (tf2's buffer keeps 10 s by default) the anchor may go to built_at_.
   static constexpr double kBuildAnchorLimit = 8.0;
 
