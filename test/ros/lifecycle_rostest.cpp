@@ -1,5 +1,6 @@
 // rostest lifecycle.test: the node's start() and stop() from two threads, as the nodelet calls
 // them (start() in a thread of its own, stop() when the nodelet is unloaded).
+#include <algorithm>
 #include <chrono>
 #include <thread>
 
@@ -29,21 +30,33 @@ bool startThenStop(double delay)
 }
 }  // namespace
 
+TEST(Lifecycle, StopBeforeStartLaunchesNoThreads)
+{
+  // The deterministic end of the race: stop() has already run when start() gets to launching.
+  FluidSimNode node(ros::NodeHandle(), ros::NodeHandle("/lifecycle_node"));
+  node.stop();
+  EXPECT_FALSE(node.start());
+}
+
 TEST(Lifecycle, StopWhileStartingLaunchesNoThreads)
 {
-  // How long a start takes here (mostly building the simulation).
-  const auto t0 = std::chrono::steady_clock::now();
+  // How long a start takes here (mostly building the simulation): the faster of two, since the
+  // first start in a process also pays one-time costs (thread pool, first touch of memory) and
+  // a stop() timed by it alone came after later, faster starts had finished (CI, 2026-12-02).
+  double start_s = 1e9;
+  for (int k = 0; k < 2; ++k)
   {
+    const auto t0 = std::chrono::steady_clock::now();
     FluidSimNode node(ros::NodeHandle(), ros::NodeHandle("/lifecycle_node"));
     ASSERT_TRUE(node.start());
+    start_s = std::min(start_s, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
     node.stop();
   }
-  const double start_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   std::printf("lifecycle: a start takes %.3f s\n", start_s);
   ASSERT_GT(start_s, 0.02) << "the scene builds too fast for stop() to fall inside start()";
   // stop() at several points inside start(), mostly while it builds.
   int stopped_while_starting = 0;
-  for (const double f : {0.3, 0.5, 0.7, 0.9})
+  for (const double f : {0.1, 0.3, 0.5, 0.7, 0.9})
     if (!startThenStop(f * start_s)) ++stopped_while_starting;
   // At least one stop() came before start() was done, and start() then said so.
   EXPECT_GE(stopped_while_starting, 1);
