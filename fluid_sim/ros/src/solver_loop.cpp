@@ -295,13 +295,17 @@ void SolverLoop::run()
 
     const double t = sim_->time();
     const double dt = sim_->nextTimeStep();
-    const bool coupled = rtf == 1.0 && !stepping_on_request;
-    if (rtf > 0.0 && !stepping_on_request)
+    // Paced (real_time_factor > 0): simulated time runs on ROS time's line, scaled by the factor
+    // (rosInstant), and the links are posed from tf at the matching instants. With factor 1 the
+    // simulation is in step with ROS time; with 0.5 a link's motion takes twice as long in ROS
+    // time as in simulated time (it looks twice as fast to the water). Every factor starts from the
+    // build's instant (see build()), so the first step finds the links where the water was placed.
+    const bool paced = rtf > 0.0 && !stepping_on_request;
+    if (paced)
     {
-      // Pace: the step from t to t + dt may run once ROS time has passed t + dt (scaled), plus the
-      // tf delay in coupled mode so that tf already holds the poses at t.
-      const ros::Time due =
-          anchor_ros_ + ros::Duration((t + dt - anchor_sim_) / rtf) + ros::Duration(coupled ? opt_.tf_delay : 0.0);
+      // Pace: the step from t to t + dt may run once ROS time has passed the instant of t + dt,
+      // plus the tf delay, so that tf already holds the poses at t.
+      const ros::Time due = rosInstant(t + dt, rtf) + ros::Duration(opt_.tf_delay);
       while (!stopping_ && ros::ok())
       {
         const ros::Time now = ros::Time::now();
@@ -335,7 +339,11 @@ void SolverLoop::run()
                           rtf, lag, rtf_measured_);
     }
 
-    const ros::Time pose_stamp = coupled ? anchor_ros_ + ros::Duration(t - anchor_sim_) : ros::Time(0);
+    ros::Time pose_stamp(0);  // zero: tf's newest poses
+    if (paced)
+      pose_stamp = rosInstant(t, rtf);
+    else if (!stepping_on_request)
+      pose_stamp = freeRunStamp(t, jump);
     if (stopping_) break;
 
     std::unique_lock<std::mutex> step_lock(cmd_mutex_, std::defer_lock);
@@ -349,7 +357,7 @@ void SolverLoop::run()
                                                                            : "ok";
     sim_time_ = sim_->time();
     if (!stepping_on_request) step_lock.unlock();
-    afterStep(rep, coupled);  // its frame goes out before a step service call returns
+    afterStep(rep, paced ? rtf : 0.0);  // its frame goes out before a step service call returns
     if (stepping_on_request)
     {
       --steps_requested_;
@@ -362,7 +370,7 @@ void SolverLoop::run()
     {
       ROS_ERROR("simulation unstable at t = %.4f s: %s. Paused; call ~reset to start again.", rep.time,
                 rep.reason.c_str());
-      publishFrame(rep, coupled);
+      publishFrame(rep, paced ? rtf : 0.0);
       std::lock_guard<std::mutex> lock(cmd_mutex_);
       paused_ = true;
       steps_requested_ = 0;
@@ -377,7 +385,7 @@ void SolverLoop::run()
     }
     if (opt_.stop_after > 0.0 && !finished && sim_->time() >= opt_.stop_after - 1e-9)
     {
-      publishFrame(rep, coupled);
+      publishFrame(rep, paced ? rtf : 0.0);
       finished = true;
       printSummary();
       if (on_finished_) on_finished_(0);
@@ -385,7 +393,38 @@ void SolverLoop::run()
   }
 }
 
-void SolverLoop::afterStep(const StepReport& rep, bool coupled)
+ros::Time SolverLoop::rosInstant(double sim_t, double rtf) const
+{
+  return anchor_ros_ + ros::Duration((sim_t - anchor_sim_) / rtf);
+}
+
+ros::Time SolverLoop::freeRunStamp(double t, bool& jump)
+{
+  // As fast as it can (real_time_factor 0): simulated time has no fixed relation to ROS time.
+  // From the anchor (the build's instant at the start), the links replay their tf motion one
+  // simulated second per ROS second while tf holds it; a simulation ahead of that takes the
+  // newest poses (the links then move slower than they do in ROS time). Taking the newest poses
+  // from the first step on made the demo's paddle, which moved on during the build, jump
+  // through the water (NaN in the second step).
+  const ros::Time now = ros::Time::now();
+  const ros::Time at = anchor_ros_ + ros::Duration(t - anchor_sim_);
+  if (at > now - ros::Duration(opt_.tf_delay)) return ros::Time(0);
+  if ((now - at).toSec() > kBuildAnchorLimit)
+  {
+    // Slower than real time for longer than tf keeps poses: nothing to replay from.
+    ROS_WARN_THROTTLE(10.0,
+                      "running as fast as it can, the simulation fell %.1f s behind ROS time, more than tf keeps "
+                      "poses for: the links jump to their newest poses",
+                      (now - at).toSec());
+    anchor_ros_ = now;
+    anchor_sim_ = t;
+    jump = true;
+    return ros::Time(0);
+  }
+  return at;
+}
+
+void SolverLoop::afterStep(const StepReport& rep, double paced_rtf)
 {
   ++steps_;
   sum_divergence_iterations_ += rep.divergence_iterations;
@@ -408,10 +447,11 @@ void SolverLoop::afterStep(const StepReport& rep, bool coupled)
 
   const double rate = publish_rate_;
   bool due;
-  if (coupled)
+  if (paced_rtf > 0.0)
   {
+    // publish_rate frames per second of ROS time: one per paced_rtf / rate simulated seconds.
     due = sim_->time() >= next_publish_sim_ - 1e-12;
-    if (due) next_publish_sim_ = std::max(next_publish_sim_ + 1.0 / rate, sim_->time());
+    if (due) next_publish_sim_ = std::max(next_publish_sim_ + paced_rtf / rate, sim_->time());
   }
   else
   {
@@ -420,16 +460,16 @@ void SolverLoop::afterStep(const StepReport& rep, bool coupled)
       next_publish_wall_ =
           WallClock::now() + std::chrono::duration_cast<WallClock::duration>(std::chrono::duration<double>(1.0 / rate));
   }
-  if (due) publishFrame(rep, coupled);
+  if (due) publishFrame(rep, paced_rtf);
 }
 
 // ------------------------------------------------------------------------------ frames
 /// Copies the state into the publishers' back frame and hands it over.
-void SolverLoop::publishFrame(const StepReport& rep, bool coupled)
+void SolverLoop::publishFrame(const StepReport& rep, double paced_rtf)
 {
   const auto t0 = WallClock::now();
   Frame& f = publishers_.back();
-  f.stamp = coupled ? anchor_ros_ + ros::Duration(sim_->time() - anchor_sim_) : ros::Time::now();
+  f.stamp = paced_rtf > 0.0 ? rosInstant(sim_->time(), paced_rtf) : ros::Time::now();
   f.fluid.positions = sim_->positions();
   f.fluid.velocities = sim_->velocities();
   f.fluid.pressures = sim_->pressures();

@@ -107,8 +107,15 @@ private:
 
   void run();
   void applyCommands();
-  void afterStep(const StepReport& report, bool coupled);
-  void publishFrame(const StepReport& report, bool coupled);
+  /// `paced_rtf`: the real-time factor of a paced step (its frames are stamped on ROS time's
+  /// line, see rosInstant), 0 for a free-running or requested step (stamped now).
+  void afterStep(const StepReport& report, double paced_rtf);
+  void publishFrame(const StepReport& report, double paced_rtf);
+  /// The ROS instant of simulated time `sim_t` when paced at factor `rtf` > 0.
+  ros::Time rosInstant(double sim_t, double rtf) const;
+  /// The tf instant to pose the links at for a free-running step from `t` (zero: the newest);
+  /// sets `jump` if the links must jump (the simulation fell behind what tf keeps).
+  ros::Time freeRunStamp(double t, bool& jump);
   void publishPausedStats();
   void printSummary();
 
@@ -150,9 +157,9 @@ private:
   std::thread thread_;
 
   // Solver-thread state: pacing.
-  ros::Time anchor_ros_;           // ROS time of simulated time anchor_sim_ (tf-coupled mode)
-  double anchor_sim_ = 0.0;        // s, simulated
-  double next_publish_sim_ = 0.0;  // s, simulated instant of the next frame (tf-coupled mode)
+  ros::Time anchor_ros_;                                        // ROS time of simulated time anchor_sim_
+  double anchor_sim_ = 0.0;                                     // s, simulated
+  double next_publish_sim_ = 0.0;                               // s, simulated instant of the next frame (paced mode)
   WallClock::time_point next_publish_wall_ = WallClock::now();  // of the next frame (other modes)
   // Real-time factor over about a second of wall time.
   WallClock::time_point rtf_wall0_ = WallClock::now();
