@@ -3,7 +3,8 @@
 //   link_poses       tf lookup of the link poses;
 //   solver_loop      the simulation, its thread, pacing and the commands it takes;
 //   publishers       the topics and the publisher thread (messages.h: the converter);
-//   services         reset / pause / step and dynamic_reconfigure.
+//   services         reset / pause / step and dynamic_reconfigure;
+//   master_watch     registers the node again with a restarted ROS master.
 #include "fluid_sim/ros/fluid_sim_node.h"
 
 #include <functional>
@@ -11,9 +12,11 @@
 #include <mutex>
 #include <string>
 
+#include <ros/this_node.h>
 #include <tbb/global_control.h>
 
 #include "fluid_sim/ros/link_poses.h"
+#include "fluid_sim/ros/master_watch.h"
 #include "fluid_sim/ros/node_parameters.h"
 #include "fluid_sim/ros/publishers.h"
 #include "fluid_sim/ros/services.h"
@@ -32,6 +35,13 @@ struct FluidSimNode::Impl
   Publishers publishers{opt};
   SolverLoop loop{opt, links, publishers};
   Services services{loop, publishers};
+  MasterWatch master_watch{[this] {
+    std::vector<std::string> names = services.names();
+    // roscpp's own logger services, under the node's (or nodelet manager's) name.
+    names.push_back(ros::this_node::getName() + "/get_loggers");
+    names.push_back(ros::this_node::getName() + "/set_logger_level");
+    return names;
+  }};
   std::function<void(int)> on_finished;  // set before start()
   // Orders start()'s launch of the threads with stop(): once stop() has begun, none is launched.
   std::mutex lifecycle;
@@ -84,6 +94,7 @@ struct FluidSimNode::Impl
     services.advertise(pnh, opt);
     publishers.start();
     loop.start();
+    master_watch.start();
     return true;
   }
 
@@ -93,6 +104,7 @@ struct FluidSimNode::Impl
     std::lock_guard<std::mutex> lock(lifecycle);
     if (stopped) return;
     stopped = true;
+    master_watch.stop();
     publishers.requestStop();
     loop.join();
     publishers.join();

@@ -27,6 +27,15 @@ void Services::advertise(ros::NodeHandle& pnh, const NodeOptions& opt)
   current_ = cfg;
   reconfigure_->updateConfig(cfg);
   reconfigure_->setCallback([this](fluid_sim::FluidSimConfig& c, uint32_t) { onReconfigure(c); });
+  std::lock_guard<std::mutex> lock(names_mutex_);
+  names_ = {srv_reset_.getService(), srv_pause_.getService(), srv_step_.getService(),
+            pnh.resolveName("set_parameters")};
+}
+
+std::vector<std::string> Services::names() const
+{
+  std::lock_guard<std::mutex> lock(names_mutex_);
+  return names_;
 }
 
 void Services::shutdown()

@@ -4,6 +4,9 @@
 // max_points goes to the publishers.
 
 #include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
 
 #include <dynamic_reconfigure/server.h>
 #include <ros/node_handle.h>
@@ -34,6 +37,10 @@ public:
   /// Stops serving reset, pause and step.
   void shutdown();
 
+  /// The resolved names of the services advertised (with dynamic_reconfigure's set_parameters):
+  /// what the master watch registers again with a restarted master.
+  std::vector<std::string> names() const;
+
 private:
   bool onReset(std_srvs::Trigger::Request& req, std_srvs::Trigger::Response& res);
   bool onPause(std_srvs::SetBool::Request& req, std_srvs::SetBool::Response& res);
@@ -48,6 +55,8 @@ private:
   std::unique_ptr<dynamic_reconfigure::Server<fluid_sim::FluidSimConfig>> reconfigure_;
   boost::recursive_mutex reconfigure_mutex_;
   fluid_sim::FluidSimConfig current_;  // the settings last accepted (under reconfigure_mutex_)
+  mutable std::mutex names_mutex_;
+  std::vector<std::string> names_;  // under names_mutex_
 };
 
 }  // namespace ros_bridge
