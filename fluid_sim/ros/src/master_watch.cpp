@@ -1,0 +1,201 @@
+#include "fluid_sim/ros/master_watch.h"
+
+#include <chrono>
+
+#include <ros/connection_manager.h>
+#include <ros/console.h>
+#include <ros/master.h>
+#include <ros/network.h>
+#include <ros/service_manager.h>
+#include <ros/this_node.h>
+#include <ros/xmlrpc_manager.h>
+
+namespace fluid_sim
+{
+namespace ros_bridge
+{
+namespace
+{
+/// One call of the process's own slave API (getPublications, getSubscriptions, publisherUpdate);
+/// false if it did not answer with code 1.
+bool callSelf(const std::string& method, const XmlRpc::XmlRpcValue& params, XmlRpc::XmlRpcValue& payload)
+{
+  std::string host;
+  uint32_t port = 0;
+  if (!ros::network::splitURI(ros::XMLRPCManager::instance()->getServerURI(), host, port)) return false;
+  XmlRpc::XmlRpcClient* client = ros::XMLRPCManager::instance()->getXMLRPCClient(host, port, "/");
+  XmlRpc::XmlRpcValue result;
+  const bool ok = client->execute(method.c_str(), params, result) &&
+                  ros::XMLRPCManager::instance()->validateXmlrpcResponse(method, result, payload);
+  ros::XMLRPCManager::instance()->releaseXMLRPCClient(client);
+  return ok;
+}
+
+/// [[topic, type], ...] from getPublications / getSubscriptions.
+std::vector<std::pair<std::string, std::string>> topicList(const std::string& method)
+{
+  XmlRpc::XmlRpcValue params, payload;
+  params[0] = ros::this_node::getName();
+  std::vector<std::pair<std::string, std::string>> topics;
+  if (!callSelf(method, params, payload) || payload.getType() != XmlRpc::XmlRpcValue::TypeArray) return topics;
+  for (int k = 0; k < payload.size(); ++k)
+    if (payload[k].getType() == XmlRpc::XmlRpcValue::TypeArray && payload[k].size() == 2)
+      topics.emplace_back(std::string(payload[k][0]), std::string(payload[k][1]));
+  return topics;
+}
+}  // namespace
+
+MasterWatch::MasterWatch(std::function<std::vector<std::string>()> services, double period)
+    : services_(std::move(services)), period_(period)
+{
+}
+
+MasterWatch::~MasterWatch()
+{
+  stop();
+}
+
+void MasterWatch::start()
+{
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (thread_.joinable() || stopping_) return;
+  thread_ = std::thread([this] { run(); });
+}
+
+void MasterWatch::stop()
+{
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    stopping_ = true;
+  }
+  wake_.notify_all();
+  if (thread_.joinable() && thread_.get_id() != std::this_thread::get_id()) thread_.join();
+}
+
+int MasterWatch::reRegistrations() const
+{
+  std::lock_guard<std::mutex> lock(mutex_);
+  return re_registrations_;
+}
+
+void MasterWatch::run()
+{
+  std::unique_lock<std::mutex> lock(mutex_);
+  while (!stopping_)
+  {
+    wake_.wait_for(lock, std::chrono::duration<double>(period_), [this] { return stopping_; });
+    if (stopping_) break;
+    lock.unlock();
+    try
+    {
+      checkOnce();
+    }
+    catch (const std::exception& e)
+    {
+      // A failed check is retried at the next period; it must never end the node.
+      ROS_WARN_THROTTLE(60.0, "fluid_sim: checking the ROS master failed: %s", e.what());
+    }
+    lock.lock();
+  }
+}
+
+bool MasterWatch::checkOnce()
+{
+  const std::string me = ros::this_node::getName();
+  XmlRpc::XmlRpcValue params, result, payload;
+  params[0] = me;
+  params[1] = me;
+  // lookupNode answers code 1 with our URI if the master knows us; -1 if it does not. No answer
+  // at all (execute() false and an invalid result) means the master is unreachable.
+  const bool known = ros::master::execute("lookupNode", params, result, payload, false);
+  const bool answered = result.valid() && result.getType() == XmlRpc::XmlRpcValue::TypeArray;
+  if (!answered)
+  {
+    if (master_reachable_)
+      ROS_WARN(
+          "fluid_sim: the ROS master at %s does not answer: the simulation runs on and connections already "
+          "made keep flowing; the node registers again when a master is back",
+          ros::master::getURI().c_str());
+    master_reachable_ = false;
+    return false;
+  }
+  if (known && std::string(payload) == ros::XMLRPCManager::instance()->getServerURI())
+  {
+    if (!master_reachable_) ROS_INFO("fluid_sim: the ROS master at %s answers again", ros::master::getURI().c_str());
+    master_reachable_ = true;
+    return true;
+  }
+  master_reachable_ = true;
+  if (!registerAll()) return false;
+  int n;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    n = ++re_registrations_;
+  }
+  ROS_INFO(
+      "fluid_sim: the ROS master at %s did not know this node (restarted?): topics, subscriptions and "
+      "services registered again (%d time(s) since start)",
+      ros::master::getURI().c_str(), n);
+  return true;
+}
+
+bool MasterWatch::registerAll()
+{
+  const std::string me = ros::this_node::getName();
+  const std::string api = ros::XMLRPCManager::instance()->getServerURI();
+  bool ok = true;
+  int published = 0, subscribed = 0, served = 0;
+  for (const auto& [topic, type] : topicList("getPublications"))
+  {
+    XmlRpc::XmlRpcValue params, result, payload;
+    params[0] = me;
+    params[1] = topic;
+    params[2] = type;
+    params[3] = api;
+    if (ros::master::execute("registerPublisher", params, result, payload, false))
+      ++published;
+    else
+      ok = false;
+  }
+  for (const auto& [topic, type] : topicList("getSubscriptions"))
+  {
+    XmlRpc::XmlRpcValue params, result, payload;
+    params[0] = me;
+    params[1] = topic;
+    params[2] = type;
+    params[3] = api;
+    if (!ros::master::execute("registerSubscriber", params, result, payload, false))
+    {
+      ok = false;
+      continue;
+    }
+    ++subscribed;
+    // The publishers the new master already knows: connect to them now (those that register
+    // later are announced by the master itself).
+    XmlRpc::XmlRpcValue update, ignored;
+    update[0] = std::string("/master");
+    update[1] = topic;
+    update[2] = payload;
+    callSelf("publisherUpdate", update, ignored);
+  }
+  const std::string service_api =
+      "rosrpc://" + ros::network::getHost() + ":" + std::to_string(ros::ConnectionManager::instance()->getTCPPort());
+  for (const std::string& service : services_ ? services_() : std::vector<std::string>{})
+  {
+    if (!ros::ServiceManager::instance()->lookupServicePublication(service)) continue;  // no longer served
+    XmlRpc::XmlRpcValue params, result, payload;
+    params[0] = me;
+    params[1] = service;
+    params[2] = service_api;
+    params[3] = api;
+    if (ros::master::execute("registerService", params, result, payload, false))
+      ++served;
+    else
+      ok = false;
+  }
+  ROS_DEBUG("fluid_sim: registered %d publications, %d subscriptions, %d services", published, subscribed, served);
+  return ok;
+}
+
+}  // namespace ros_bridge
+}  // namespace fluid_sim
