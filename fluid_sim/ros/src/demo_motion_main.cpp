@@ -5,7 +5,8 @@
 //
 // Private parameters (lists of equal length, one entry per joint; absent lists are zeros):
 //   joints [string], offsets, velocities (rad/s), amplitudes, frequencies (Hz), phases (rad);
-//   rate (Hz, default 100).
+//   rate (Hz, default 100); epoch (s of ROS time that counts as t = 0; default: this node's
+//   start). With an epoch, a restarted demo_motion carries on where the last one was.
 #include <cmath>
 #include <string>
 #include <vector>
@@ -42,7 +43,15 @@ int main(int argc, char** argv)
   ros::Publisher pub = nh.advertise<sensor_msgs::JointState>("joint_states", 10);
   // With use_sim_time, ROS time is 0 until the first /clock message.
   while (ros::ok() && ros::Time::now().isZero()) ros::WallDuration(0.01).sleep();
-  const ros::Time start = ros::Time::now();
+  double epoch = 0.0;
+  pnh.param("epoch", epoch, epoch);
+  if (!std::isfinite(epoch) || epoch < 0.0)
+  {
+    ROS_FATAL("demo_motion: parameter %s/epoch = %g: must be a ROS time in s (>= 0)", pnh.getNamespace().c_str(),
+              epoch);
+    return 1;
+  }
+  const ros::Time start = epoch > 0.0 ? ros::Time(epoch) : ros::Time::now();
   ros::Rate loop(rate);
   const double two_pi = 2.0 * M_PI;
   while (ros::ok())

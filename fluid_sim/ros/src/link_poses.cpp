@@ -116,6 +116,30 @@ std::map<std::string, Pose> LinkPoses::newestPoses()
   return poses;
 }
 
+std::string LinkPoses::notYetAt(const ros::Time& stamp, ros::Time* newest)
+{
+  for (const LinkBody& lb : links_)
+  {
+    ros::Time at;
+    try
+    {
+      // The newest instant the whole chain fixed frame -> link is known at (zero: all static).
+      at = buffer_.lookupTransform(opt_.fixed_frame, lb.link, ros::Time(0)).header.stamp;
+    }
+    catch (const tf2::TransformException&)
+    {
+      *newest = ros::Time();
+      return lb.link;
+    }
+    if (!at.isZero() && at < stamp)
+    {
+      *newest = at;
+      return lb.link;
+    }
+  }
+  return "";
+}
+
 void LinkPoses::poseBodies(Simulation& sim, const ros::Time& stamp, bool jump)
 {
   for (LinkBody& lb : links_)

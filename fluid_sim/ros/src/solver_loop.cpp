@@ -64,6 +64,7 @@ void SolverLoop::build(const std::map<std::string, Pose>& poses)
   // paddle, turning at 1.5 rad/s, jumped 0.3-0.5 rad through the settled water in its first step
   // and every particle became NaN in the second.
   built_at_ = ros::Time::now();
+  timeline_valid_ = false;  // a new scene: a new time line, from built_at_
   try
   {
     auto next = std::make_unique<Simulation>(scene);
@@ -131,7 +132,7 @@ CommandResult SolverLoop::reset()
 CommandResult SolverLoop::pause(bool paused)
 {
   std::lock_guard<std::mutex> lock(cmd_mutex_);
-  if (paused_ && !paused) reanchor_ = true;  // resume: pacing restarts from now
+  if (paused_ && !paused) reanchor_ = true;  // resume: pacing restarts from where it stopped
   paused_ = paused;
   cmd_cv_.notify_all();
   CommandResult r;
@@ -263,30 +264,45 @@ void SolverLoop::run()
       }
       if (reanchor_ && !stepping_on_request)
       {
-        anchor_sim_ = sim_->time();
-        // Simulated time anchor_sim_ is ROS time now; steps then trail ROS time by tf_delay (see
-        // the pacing below), so tf holds poses on both sides of every instant looked up. An
-        // anchor before now could ask for poses older than tf has (a jump back and forth); the
-        // one exception is a fresh build, anchored at the instant its poses were taken (see
-        // build()), while tf still holds that instant: the loop then catches up.
         const ros::Time now = ros::Time::now();
-        anchor_ros_ = now;
-        if (!built_at_.isZero() && built_at_ <= now)
+        if (timeline_valid_)
         {
-          if ((now - built_at_).toSec() < kBuildAnchorLimit)
-          {
-            anchor_ros_ = built_at_;
-            catch_up_ = (now - built_at_).toSec();  // behind by the build on purpose: not worth a warning
-          }
-          else
-            ROS_WARN(
-                "building the simulation took %.1f s, longer than tf keeps poses for the start: the links "
-                "jump to where they are now in the first step",
-                (now - built_at_).toSec());
+          // Resume, or a new factor: the time line carries on from the instant the links were last
+          // posed at, so they move on continuously; the robot's motion during a pause is replayed
+          // while the simulation catches up. Re-anchored at now instead, the demo's paddle jumped
+          // by all it had turned during the pause (and by the lag before it): NaN at once.
+          anchor_ros_ = last_pose_stamp_ <= now ? last_pose_stamp_ : now;
+          anchor_sim_ = last_pose_sim_;
+          catch_up_ = (now - anchor_ros_).toSec();  // behind on purpose: not worth a warning
         }
-        built_at_ = ros::Time();  // used once: later anchors (resume, rtf change) are now
+        else
+        {
+          // A fresh build (start, reset) or ROS time that went back. Simulated time is ROS time
+          // now; steps then trail ROS time by tf_delay (see the pacing below), so tf holds poses
+          // on both sides of every instant looked up. A fresh build is anchored at the instant
+          // its poses were taken (see build()) while tf still holds that instant: the loop then
+          // catches up.
+          anchor_sim_ = sim_->time();
+          anchor_ros_ = now;
+          if (!built_at_.isZero() && built_at_ <= now)
+          {
+            if ((now - built_at_).toSec() < kMaxPoseLag)
+            {
+              anchor_ros_ = built_at_;
+              catch_up_ = (now - built_at_).toSec();  // behind by the build on purpose: not worth a warning
+            }
+            else
+              ROS_WARN(
+                  "building the simulation took %.1f s, longer than tf keeps poses for the start: the links "
+                  "jump to where they are now in the first step",
+                  (now - built_at_).toSec());
+          }
+          jump = true;
+        }
+        built_at_ = ros::Time();  // used once
+        anchor_rtf_ = rtf;
+        timeline_valid_ = true;
         reanchor_ = false;
-        jump = true;
         next_publish_sim_ = sim_->time();
         rtf_sim0_ = sim_->time();
         rtf_wall0_ = WallClock::now();
@@ -317,6 +333,7 @@ void SolverLoop::run()
                    now.toSec());
           std::lock_guard<std::mutex> lock(cmd_mutex_);
           reanchor_ = true;
+          timeline_valid_ = false;
           break;
         }
         {
@@ -339,11 +356,12 @@ void SolverLoop::run()
                           rtf, lag, rtf_measured_);
     }
 
-    ros::Time pose_stamp(0);  // zero: tf's newest poses
-    if (paced)
-      pose_stamp = rosInstant(t, rtf);
-    else if (!stepping_on_request)
-      pose_stamp = freeRunStamp(t, jump);
+    // The links' instant. A step asked for while paused goes on along the same time line, without
+    // waiting: past what tf has, the links keep their newest pose.
+    const ros::Time pose_stamp = poseStamp(t);
+    if (!stepping_on_request && !waitForTf(pose_stamp)) continue;
+    last_pose_stamp_ = pose_stamp;
+    last_pose_sim_ = t;
     if (stopping_) break;
 
     std::unique_lock<std::mutex> step_lock(cmd_mutex_, std::defer_lock);
@@ -393,34 +411,75 @@ void SolverLoop::run()
   }
 }
 
+bool SolverLoop::waitForTf(const ros::Time& stamp)
+{
+  if (links_.size() == 0) return true;
+  const ros::Time start = ros::Time::now();
+  const auto wall_start = WallClock::now();
+  bool warned = false;
+  while (!stopping_ && ros::ok())
+  {
+    ros::Time newest;
+    const std::string link = links_.notYetAt(stamp, &newest);
+    if (link.empty()) break;
+    // A publisher a little late is waited for in silence; one that stopped is named.
+    if (WallClock::now() - wall_start > std::chrono::seconds(1))
+    {
+      if (newest.isZero())
+        ROS_WARN_THROTTLE(5.0, "tf: no pose of link '%s' at all: the simulation waits for it at t = %.3f s",
+                          link.c_str(), sim_->time());
+      else
+        ROS_WARN_THROTTLE(5.0,
+                          "tf: no pose of link '%s' at %.3f yet (its newest is %.1f s older): the simulation waits "
+                          "for it at t = %.3f s",
+                          link.c_str(), stamp.toSec(), (stamp - newest).toSec(), sim_->time());
+      warned = true;
+    }
+    {
+      std::lock_guard<std::mutex> lock(cmd_mutex_);
+      if (reset_requested_ || paused_ || reanchor_) return false;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  const double waited = (ros::Time::now() - start).toSec();  // s of ROS time
+  if (warned)
+    ROS_INFO(
+        "tf: every link's pose is there again after %.1f s; the simulation goes on from t = %.3f s (and catches "
+        "up)",
+        waited, sim_->time());
+  // Behind ROS time by the wait on purpose: the catch-up is not a loop that cannot keep up.
+  if (waited > 0.0) catch_up_ += waited;
+  return !stopping_;
+}
+
 ros::Time SolverLoop::rosInstant(double sim_t, double rtf) const
 {
   return anchor_ros_ + ros::Duration((sim_t - anchor_sim_) / rtf);
 }
 
-ros::Time SolverLoop::freeRunStamp(double t, bool& jump)
+ros::Time SolverLoop::poseStamp(double t)
 {
-  // As fast as it can (real_time_factor 0): simulated time has no fixed relation to ROS time.
-  // From the anchor (the build's instant at the start), the links replay their tf motion one
-  // simulated second per ROS second while tf holds it; a simulation ahead of that takes the
-  // newest poses (the links then move slower than they do in ROS time). Taking the newest poses
-  // from the first step on made the demo's paddle, which moved on during the build, jump
-  // through the water (NaN in the second step).
+  const double rtf = anchor_rtf_;  // the factor of the time line (the current one once anchored)
+  // The instant of simulated time t on ROS time's line: paced, scaled by the factor; as fast as
+  // it can (factor 0), one simulated second per ROS second from the anchor (the build's instant
+  // at the start), so the links replay their tf motion from where the water was placed.
+  ros::Time at = rtf > 0.0 ? rosInstant(t, rtf) : anchor_ros_ + ros::Duration(t - anchor_sim_);
   const ros::Time now = ros::Time::now();
-  const ros::Time at = anchor_ros_ + ros::Duration(t - anchor_sim_);
-  if (at > now - ros::Duration(opt_.tf_delay)) return ros::Time(0);
-  if ((now - at).toSec() > kBuildAnchorLimit)
+  // Never further back than tf keeps poses (the buffer holds 60 s): a simulation that falls
+  // behind by more has its links' instant drawn along with ROS time, so that they move on
+  // continuously, faster than they do, instead of jumping to their newest pose (the demo's paddle,
+  // jumping 60 s of motion on a loaded machine, made every particle NaN).
+  if (now.toSec() > kMaxPoseLag && at < now - ros::Duration(kMaxPoseLag))
   {
-    // Slower than real time for longer than tf keeps poses: nothing to replay from.
     ROS_WARN_THROTTLE(10.0,
-                      "running as fast as it can, the simulation fell %.1f s behind ROS time, more than tf keeps "
-                      "poses for: the links jump to their newest poses",
-                      (now - at).toSec());
-    anchor_ros_ = now;
-    anchor_sim_ = t;
-    jump = true;
-    return ros::Time(0);
+                      "the simulation is %.1f s behind ROS time, more than %g s: the links are posed %g s back, so "
+                      "the water sees them move faster than they do",
+                      (now - at).toSec(), kMaxPoseLag, kMaxPoseLag);
+    at = now - ros::Duration(kMaxPoseLag);
   }
+  // Factor 0 ahead of ROS time: the links' newest poses (tf_delay back, so tf holds them).
+  if (rtf == 0.0 && now.toSec() > opt_.tf_delay && at > now - ros::Duration(opt_.tf_delay))
+    at = now - ros::Duration(opt_.tf_delay);
   return at;
 }
 

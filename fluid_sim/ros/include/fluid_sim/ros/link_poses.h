@@ -47,6 +47,11 @@ public:
   /// For a rebuild: each link's newest pose, or its last one where tf has none.
   std::map<std::string, Pose> newestPoses();
 
+  /// The first link whose newest pose in tf is older than `stamp` (tf has not got there yet: its
+  /// publisher is late or has stopped), with that pose's stamp in `newest` (zero if tf has no
+  /// pose of it at all); "" if every link's pose at `stamp` can come (or can never come: the
+  /// instant is older than tf keeps, where poseBodies takes the newest).
+  std::string notYetAt(const ros::Time& stamp, ros::Time* newest);
   /// Poses every link body of `sim` for the step starting now. `stamp`: ROS time of the
   /// simulated instant, or ros::Time(0) for the newest poses. `jump`: place without deriving
   /// velocities. A link tf does not know stays where it was (with a throttled warning).

@@ -111,11 +111,14 @@ private:
   /// line, see rosInstant), 0 for a free-running or requested step (stamped now).
   void afterStep(const StepReport& report, double paced_rtf);
   void publishFrame(const StepReport& report, double paced_rtf);
+  /// Paced: waits until tf has every link's pose at `stamp` (a tf publisher that is late, or
+  /// stopped and restarted: tf2 then interpolates across the gap, so the links move on smoothly
+  /// instead of jumping). False if a stop, reset, pause or re-anchoring came meanwhile.
+  bool waitForTf(const ros::Time& stamp);
   /// The ROS instant of simulated time `sim_t` when paced at factor `rtf` > 0.
   ros::Time rosInstant(double sim_t, double rtf) const;
-  /// The tf instant to pose the links at for a free-running step from `t` (zero: the newest);
-  /// sets `jump` if the links must jump (the simulation fell behind what tf keeps).
-  ros::Time freeRunStamp(double t, bool& jump);
+  /// The ROS instant to pose the links at for the step from simulated time `t`.
+  ros::Time poseStamp(double t);
   void publishPausedStats();
   void printSummary();
 
@@ -146,8 +149,9 @@ private:
   bool reanchor_ = true;   // pacing restarts from the current instants (start, resume, reset, rtf change)
   ros::Time built_at_;     // ROS time at which build() took its poses; zero once the anchor used it
   double catch_up_ = 0.0;  // s, how far behind ROS time an anchor at built_at_ started
-  // s; at most this far back (tf2's buffer keeps 10 s by default) the anchor may go to built_at_.
-  static constexpr double kBuildAnchorLimit = 8.0;
+  // s; the links are never looked up further back than this (LinkPoses' tf buffer keeps 60 s),
+  // nor is the start anchored further back at the build's instant.
+  static constexpr double kMaxPoseLag = 30.0;
 
   // Live settings (reconfigurable).
   std::atomic<double> publish_rate_{30.0};     // Hz
@@ -157,6 +161,13 @@ private:
   std::thread thread_;
 
   // Solver-thread state: pacing.
+  // The time line (solver thread only): simulated time anchor_sim_ is ROS time anchor_ros_, and
+  // runs at anchor_rtf_ (0: one to one, as fast as it can). Valid from the first anchoring until a
+  // rebuild or a jump back of ROS time; resume and a new factor carry it on.
+  bool timeline_valid_ = false;
+  double anchor_rtf_ = 1.0;
+  ros::Time last_pose_stamp_;                                   // the instant the links were last posed at
+  double last_pose_sim_ = 0.0;                                  // s, the simulated time of that step
   ros::Time anchor_ros_;                                        // ROS time of simulated time anchor_sim_
   double anchor_sim_ = 0.0;                                     // s, simulated
   double next_publish_sim_ = 0.0;                               // s, simulated instant of the next frame (paced mode)
