@@ -114,7 +114,8 @@ class Soak:
                 os.remove(os.path.join(self.out, name))
         self.port = free_port()
         self.env = dict(os.environ)
-        self.env["ROS_MASTER_URI"] = "http://localhost:%d" % self.port
+        host = os.environ.get("ROS_HOSTNAME") or os.environ.get("ROS_IP") or "localhost"
+        self.env["ROS_MASTER_URI"] = "http://%s:%d" % (host, self.port)
         os.environ["ROS_MASTER_URI"] = self.env["ROS_MASTER_URI"]
         self.procs = {}
         self.lock = threading.Lock()
