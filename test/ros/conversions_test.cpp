@@ -7,6 +7,7 @@
 #include <vector>
 
 #include <gtest/gtest.h>
+#include <ros/names.h>
 
 #include "fluid_sim/core/simulation.h"
 #include "fluid_sim/io/scene_loader.h"
@@ -15,6 +16,7 @@
 #include "fluid_sim/ros/messages.h"
 #include "fluid_sim/ros/node_parameters.h"
 #include "fluid_sim/ros/param_yaml.h"
+#include "fluid_sim/ros/ros_names.h"
 #include "fluid_sim/ros/thread_guard.h"
 
 using namespace fluid_sim;
@@ -325,4 +327,84 @@ mesh: {file: ../meshes/x.stl}
   EXPECT_NE(yaml.find("\"spacing\": 0.02"), std::string::npos) << yaml;
   EXPECT_EQ(yaml.find("max_points"), std::string::npos) << yaml;  // a node key, not a scene key
   EXPECT_THROW(yamlToParameters("a: [1, 2"), std::invalid_argument);
+}
+
+// ------------------------------------------------------------------------------ ROS names
+TEST(Names, BodyNamesBecomeValidRosBaseNames)
+{
+  EXPECT_EQ(rosBaseName("paddle"), "paddle");  // valid names are kept
+  EXPECT_EQ(rosBaseName("base_link2"), "base_link2");
+  EXPECT_EQ(rosBaseName("my link"), "my_link");
+  EXPECT_EQ(rosBaseName("a-b"), "a_b");
+  EXPECT_EQ(rosBaseName("arm/link"), "arm_link");
+  EXPECT_EQ(rosBaseName("2arm"), "_2arm");
+  EXPECT_EQ(rosBaseName("_x"), "__x");
+  EXPECT_EQ(rosBaseName(""), "_");
+  EXPECT_EQ(rosBaseName("r\xC3\xBChrer"), "r_hrer");          // "rührer": one '_' for the two-byte ü
+  EXPECT_EQ(rosBaseName("\xE6\xB0\xB4\xE6\xA7\xBD"), "___");  // two three-byte characters
+  // Each result is a name roscpp accepts as a topic.
+  for (const std::string& name : {"my link", "2arm", "a-b", "", "\xE6\xB0\xB4", "~x", "a//b/"})
+  {
+    std::string error;
+    EXPECT_TRUE(ros::names::validate("wrench/" + rosBaseName(name), error)) << name << ": " << error;
+  }
+}
+
+namespace
+{
+Simulation namesScene(const std::string& second_name)
+{
+  return Simulation(io::parseScene(R"yaml(
+spacing: 0.05
+domain: {min: [-1, -1, -1], max: [2, 2, 2]}
+fluid:
+  - box: {min: [0.1, 0.1, 0.1], max: [0.4, 0.4, 0.3]}
+boundaries:
+  - name: a-b
+    box: {min: [0, 0, 0], max: [0.5, 0.5, 0.5]}
+    inside: true
+  - name: ")yaml" + second_name + R"yaml("
+    box: {min: [0.6, 0.6, 0.6], max: [0.8, 0.8, 0.8]}
+    motion: {angular_velocity: [0, 0, 1]}
+  - name: link
+    box: {min: [-0.05, -0.05, -0.05], max: [0.05, 0.05, 0.05]}
+    pose: {xyz: [1.5, 1.5, 1.5]}
+    external: true
+)yaml",
+                                   "scene.yaml"));
+}
+}  // namespace
+
+TEST(Names, BodyTopicsAndFrames)
+{
+  const Simulation sim = namesScene("2 turning");
+  const std::vector<BodyTopic> t = bodyTopics(sim);
+  ASSERT_EQ(t.size(), 3u);
+  EXPECT_EQ(t[0].topic, "wrench/a_b");
+  EXPECT_EQ(t[0].frame, "fluid_sim/a-b");  // a scene body: the node's frame, named after the body
+  EXPECT_TRUE(t[0].scene_body);
+  EXPECT_FALSE(t[0].moving);
+  EXPECT_EQ(t[1].topic, "wrench/_2_turning");
+  EXPECT_EQ(t[1].frame, "fluid_sim/2 turning");
+  EXPECT_TRUE(t[1].moving);
+  EXPECT_EQ(t[2].topic, "wrench/link");
+  EXPECT_EQ(t[2].frame, "link");  // posed from tf: its own frame
+  EXPECT_FALSE(t[2].scene_body);
+}
+
+TEST(Names, TwoBodiesOnOneTopicAreAnErrorNamingBoth)
+{
+  const Simulation sim = namesScene("a b");
+  try
+  {
+    bodyTopics(sim);
+    FAIL() << "'a-b' and 'a b' both became wrench/a_b";
+  }
+  catch (const StartupError& e)
+  {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("'a-b'"), std::string::npos) << what;
+    EXPECT_NE(what.find("'a b'"), std::string::npos) << what;
+    EXPECT_NE(what.find("wrench/a_b"), std::string::npos) << what;
+  }
 }

@@ -107,6 +107,24 @@ Pose toPose(const geometry_msgs::Transform& transform)
   return Pose::fromTranslationQuaternion(Vec3d(t.x, t.y, t.z), q.w, q.x, q.y, q.z);
 }
 
+geometry_msgs::TransformStamped toTransformStamped(const Pose& pose, const std::string& parent,
+                                                   const std::string& child, const ros::Time& stamp)
+{
+  geometry_msgs::TransformStamped t;
+  t.header.stamp = stamp;
+  t.header.frame_id = parent;
+  t.child_frame_id = child;
+  t.transform.translation.x = pose.translation.x();
+  t.transform.translation.y = pose.translation.y();
+  t.transform.translation.z = pose.translation.z();
+  const Eigen::Quaterniond q = pose.rotation.normalized();
+  t.transform.rotation.w = q.w();
+  t.transform.rotation.x = q.x();
+  t.transform.rotation.y = q.y();
+  t.transform.rotation.z = q.z();
+  return t;
+}
+
 fluid_msgs::SolverStats toSolverStats(const StepReport& report, const Simulation& sim, double real_time_factor,
                                       bool paused, const std::string& status)
 {
