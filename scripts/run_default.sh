@@ -22,4 +22,9 @@ fi
 for arg in "$@"; do
   [[ "$arg" == headless:=* || "$arg" == rviz:=* ]] && mode=()
 done
-exec roslaunch fluid_sim demo.launch "${mode[@]}" "$@"
+# Not `roslaunch`: headless, the run ends when the node has run `duration` seconds, and
+# run_launch.py then ends the launch without roslaunch's red "REQUIRED process has died" banner
+# and exits with the node's exit code (non-zero, with the node's error, when it fails).
+# test/ros/demo_smoke.sh runs the same command.
+exec /usr/bin/python3 scripts/run_launch.py --until /fluid_sim/fluid_sim fluid_sim demo.launch required:=false \
+  "${mode[@]}" "$@"

@@ -181,7 +181,8 @@ class Soak:
                 self.procs.pop(k).stop()
 
     def start_node(self):
-        args = [libexec("fluid_sim_node"), "__name:=fluid_sim",
+        # As launch/fluid_sim.launch starts it: /fluid_sim/fluid_sim, topics and services in /fluid_sim.
+        args = [libexec("fluid_sim_node"), "__name:=fluid_sim", "__ns:=/fluid_sim",
                 "_scene_file:=" + os.path.join(ROOT, "config", "demo_scene.yaml"),
                 "_real_time_factor:=%g" % self.args.real_time_factor]
         if self.args.spacing:

@@ -1,9 +1,12 @@
 #!/usr/bin/env bash
-# ctest ros_demo_headless: launch/demo.launch headless for 0.5 simulated seconds on its own master
-# port; it must print the node's final statistics with status ok and end by itself. Then the same
-# for 0.3 s with real_time_factor 0 (as fast as it can) and 0.5: until 2026-12-02 every factor but
-# 1 took the paddle's newest pose in the first step, after it had moved on during the build, and
-# the water went NaN in the second step.
+# ctest ros_demo_headless: README command one's demo (launch/demo.launch headless, run as
+# scripts/run_default.sh runs it: through scripts/run_launch.py) for 0.5 simulated seconds on its
+# own master port. A normal run must print the node's final statistics with status ok, end by
+# itself with exit code 0 and without roslaunch's "REQUIRED process has died" banner; a run whose
+# scene is bad must end with a non-zero exit code and the node's error.
+# Then the same for 0.3 s at real_time_factor 0 (as fast as it can) and 0.5: until 2026-12-02
+# every factor but 1 took the paddle's newest pose in the first step, after it had moved on during
+# the build, and the water went NaN in the second step.
 set -uo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
 # shellcheck source=../../scripts/ros_env.sh
@@ -11,23 +14,43 @@ source "$ROOT/scripts/ros_env.sh"
 port=$((20000 + RANDOM % 20000))
 host="${ROS_HOSTNAME:-${ROS_IP:-localhost}}"
 export ROS_MASTER_URI="http://$host:$port"
-run_demo() { # duration, extra roslaunch arguments...
-  local duration="$1" log rc
+work="$(mktemp -d)"
+trap 'rm -rf "$work"' EXIT
+
+demo() { # duration, extra roslaunch arguments...
+  local duration="$1"
   shift
-  log="$(mktemp)"
-  timeout 120 roslaunch -p "$port" fluid_sim demo.launch headless:=true duration:="$duration" "$@" > "$log" 2>&1
-  rc=$?
-  cat "$log"
-  if ((rc != 0)); then
-    echo "demo_smoke ($*): roslaunch exit code $rc" >&2
-    exit 1
-  fi
-  grep -q "fluid_sim: finished at t = $duration" "$log" || { echo "demo_smoke ($*): no final statistics" >&2; exit 1; }
-  grep -q "status ok" "$log" || { echo "demo_smoke ($*): status not ok" >&2; exit 1; }
-  grep -q "paddle: force" "$log" || { echo "demo_smoke ($*): no paddle wrench" >&2; exit 1; }
-  rm -f "$log"
+  timeout 120 /usr/bin/python3 "$ROOT/scripts/run_launch.py" -p "$port" --until /fluid_sim/fluid_sim \
+    fluid_sim demo.launch required:=false headless:=true duration:="$duration" "$@"
 }
-run_demo 0.5
-run_demo 0.3 real_time_factor:=0
-run_demo 0.3 real_time_factor:=0.5
+fail() {
+  echo "demo_smoke: $*" >&2
+  exit 1
+}
+
+# Normal runs: factor 1 (the demo's), 0 and 0.5.
+normal() { # duration, extra roslaunch arguments...
+  local duration="$1"
+  demo "$@" > "$work/ok.log" 2>&1
+  rc=$?
+  cat "$work/ok.log"
+  ((rc == 0)) || fail "($*) exit code $rc"
+  grep -q "fluid_sim: finished at t = $duration" "$work/ok.log" || fail "($*) no final statistics"
+  grep -q "status ok" "$work/ok.log" || fail "($*) status not ok"
+  grep -q "paddle: force" "$work/ok.log" || fail "($*) no paddle wrench"
+  grep -q "REQUIRED process" "$work/ok.log" && fail "($*) the normal end printed roslaunch's REQUIRED banner"
+  return 0
+}
+normal 0.5
+normal 0.3 real_time_factor:=0
+normal 0.3 real_time_factor:=0.5
+
+# A failing run: the demo's scene with a misspelt solver key.
+sed 's/density_error:/density_eror:/' "$ROOT/config/demo_scene.yaml" > "$work/bad_scene.yaml"
+grep -q "density_eror" "$work/bad_scene.yaml" || fail "could not make the bad scene"
+demo 0.5 scene:="$work/bad_scene.yaml" > "$work/bad.log" 2>&1
+rc=$?
+cat "$work/bad.log"
+((rc != 0 && rc != 124)) || fail "a bad scene ended with exit code $rc (expected the node's, non-zero)"
+grep -q "solver.density_eror" "$work/bad.log" || fail "the node's error (naming solver.density_eror) is not in the output"
 echo "demo_smoke: ok"

@@ -24,8 +24,10 @@
 #include <sensor_msgs/PointCloud2.h>
 #include <std_srvs/SetBool.h>
 #include <std_srvs/Trigger.h>
+#include <tf2_ros/buffer.h>
 #include <tf2_ros/static_transform_broadcaster.h>
 #include <tf2_ros/transform_broadcaster.h>
+#include <tf2_ros/transform_listener.h>
 
 #include "fluid_msgs/ContactWrenchArray.h"
 #include "fluid_msgs/SolverStats.h"
@@ -93,7 +95,8 @@ geometry_msgs::TransformStamped transform(const std::string& child, double x, do
 }  // namespace
 
 // ------------------------------------------------------------------------------ tank.test
-// The node from launch/fluid_sim.launch, named fluid_sim, the URDF tank link as a container.
+// The node from launch/fluid_sim.launch (/fluid_sim/fluid_sim: topics and services in
+// /fluid_sim, parameters in /fluid_sim/fluid_sim), the URDF tank link as a container.
 
 TEST(Tank, PublishesParticlesWithTheDocumentedFieldsAndCount)
 {
@@ -110,14 +113,14 @@ TEST(Tank, PublishesParticlesWithTheDocumentedFieldsAndCount)
   }
   EXPECT_EQ(cloud->point_step, 36u);
   EXPECT_EQ(cloud->height, 1u);
-  const int expected = latticeCount("/fluid_sim");
+  const int expected = latticeCount("/fluid_sim/fluid_sim");
   EXPECT_GT(expected, 100);
   EXPECT_EQ(int(cloud->width), expected);  // a container removes nothing; nothing leaves it
   ASSERT_EQ(cloud->data.size(), std::size_t(cloud->width) * 36u);
   // Every particle inside the tank (0..0.3, 0..0.15, 0..0.3) up to its boundary particles, which
   // lie half a spacing beyond the wall (a particle past them has leaked); speed = |v|.
   double s = 0;
-  ros::param::get("/fluid_sim/spacing", s);
+  ros::param::get("/fluid_sim/fluid_sim/spacing", s);
   const float m = float(0.5 * s);
   for (std::size_t i = 0; i < cloud->width; ++i)
   {
@@ -143,7 +146,7 @@ TEST(Tank, PublishesParticlesWithTheDocumentedFieldsAndCount)
   ASSERT_TRUE(boundary) << "the latched boundary cloud did not arrive";
   // One layer of particles at the spacing over the tank's surface (0.36 m^2), at the least.
   double spacing = 0;
-  ros::param::get("/fluid_sim/spacing", spacing);
+  ros::param::get("/fluid_sim/fluid_sim/spacing", spacing);
   const double area = 2 * (0.3 * 0.15 + 0.3 * 0.3 + 0.15 * 0.3);
   EXPECT_GT(boundary->width, 0.9 * area / (spacing * spacing));
   EXPECT_EQ(boundary->fields.back().name, "body");
@@ -175,9 +178,9 @@ TEST(Tank, FloorWrenchEqualsTheWaterWeight)
   // Let it settle (simulated time; the node runs as fast as it can), then average the tank's
   // wrench over 0.5 s of simulated time. The tank link's frame is axis-aligned with the world.
   double spacing = 0, rho0 = 0;
-  ros::param::get("/fluid_sim/spacing", spacing);
-  ros::param::get("/fluid_sim/rest_density", rho0);
-  const double weight = latticeCount("/fluid_sim") * rho0 * spacing * spacing * spacing * 9.81;
+  ros::param::get("/fluid_sim/fluid_sim/spacing", spacing);
+  ros::param::get("/fluid_sim/fluid_sim/rest_density", rho0);
+  const double weight = latticeCount("/fluid_sim/fluid_sim") * rho0 * spacing * spacing * spacing * 9.81;
   std::mutex m;
   double sum_fz = 0, sum_torque_x = 0, t_last = 0;
   int count = 0;
@@ -229,9 +232,9 @@ TEST(Tank, DynamicReconfigureStartsFromTheSceneAndChangesTheSolver)
   // The server publishes the scene's values (tank_scene.yaml: min_iterations 3), not the .cfg
   // defaults (2).
   int min_iterations = 0;
-  ASSERT_TRUE(ros::service::waitForService("/fluid_sim/set_parameters", 10000));
+  ASSERT_TRUE(ros::service::waitForService("/fluid_sim/fluid_sim/set_parameters", 10000));
   ros::WallDuration(0.5).sleep();
-  ASSERT_TRUE(ros::param::get("/fluid_sim/min_iterations", min_iterations));
+  ASSERT_TRUE(ros::param::get("/fluid_sim/fluid_sim/min_iterations", min_iterations));
   EXPECT_EQ(min_iterations, 3);
 
   dynamic_reconfigure::Reconfigure srv;
@@ -239,7 +242,7 @@ TEST(Tank, DynamicReconfigureStartsFromTheSceneAndChangesTheSolver)
   p.name = "min_iterations";
   p.value = 9;
   srv.request.config.ints.push_back(p);
-  ASSERT_TRUE(ros::service::call("/fluid_sim/set_parameters", srv));
+  ASSERT_TRUE(ros::service::call("/fluid_sim/fluid_sim/set_parameters", srv));
   bool seen = false;
   for (int k = 0; k < 20 && !seen; ++k)
   {
@@ -253,7 +256,7 @@ TEST(Tank, DynamicReconfigureStartsFromTheSceneAndChangesTheSolver)
   srv.request.config.ints.clear();
   p.value = 3;
   srv.request.config.ints.push_back(p);
-  ASSERT_TRUE(ros::service::call("/fluid_sim/set_parameters", srv));
+  ASSERT_TRUE(ros::service::call("/fluid_sim/fluid_sim/set_parameters", srv));
   auto stats = waitFor<fluid_msgs::SolverStats>("/fluid_sim/stats", 5.0);
   ASSERT_TRUE(stats);
   EXPECT_EQ(stats->status, "ok");
@@ -317,7 +320,7 @@ TEST(Tank, PauseStepAndResetDoWhatTheySay)
   }
   while (stats->sim_time <= 0.05 && (ros::WallTime::now() - start).toSec() < 60.0);
   EXPECT_GT(stats->sim_time, 0.05);
-  EXPECT_EQ(int(stats->fluid_particles), latticeCount("/fluid_sim"));
+  EXPECT_EQ(int(stats->fluid_particles), latticeCount("/fluid_sim/fluid_sim"));
 }
 
 // ------------------------------------------------------------------------------ pusher.test
@@ -584,6 +587,58 @@ TEST(SimTime, SimulatedTimeFollowsClockNotWallTime)
   EXPECT_LT(worst_lead, 1e-6) << "a stamp was ahead of /clock by " << worst_lead << " s";
 }
 
+// ------------------------------------------------------------------------------ names.test
+// launch/fluid_sim.launch in a <group> that remaps particles to /water; scene bodies only.
+
+TEST(Names, RemappedTopicArrivesUnderItsNewName)
+{
+  auto cloud = waitFor<sensor_msgs::PointCloud2>("/water", 60.0);
+  ASSERT_TRUE(cloud) << "no particles on /water (remapped from particles) within 60 s";
+  EXPECT_GT(cloud->width, 100u);
+  // The other topics keep their names in the node's namespace, and nothing is left publishing
+  // the old name.
+  EXPECT_TRUE(waitFor<fluid_msgs::SolverStats>("/fluid_sim/stats", 10.0));
+  ros::master::V_TopicInfo topics;
+  ASSERT_TRUE(ros::master::getTopics(topics));
+  for (const auto& t : topics) EXPECT_NE(t.name, "/fluid_sim/particles");
+  // Services in the node's namespace, dynamic_reconfigure in its private one (where the
+  // parameters are, as the launch file set them).
+  EXPECT_TRUE(ros::service::waitForService("/fluid_sim/reset", 10000));
+  EXPECT_TRUE(ros::service::waitForService("/fluid_sim/fluid_sim/set_parameters", 10000));
+  double rtf = -1;
+  EXPECT_TRUE(ros::param::get("/fluid_sim/fluid_sim/real_time_factor", rtf));
+  EXPECT_EQ(rtf, 0.0);
+}
+
+TEST(Names, SceneBodyWrenchesAreStampedInFramesOnTf)
+{
+  tf2_ros::Buffer buffer;
+  tf2_ros::TransformListener listener(buffer);
+  // The tank stands still (its frame on /tf_static); the block "2nd block" turns (on /tf with
+  // every frame). Its name is no ROS name: its topic is wrench/_2nd_block.
+  const std::vector<std::pair<std::string, std::string>> bodies = {{"tank", "fluid_sim/tank"},
+                                                                   {"_2nd_block", "fluid_sim/2nd block"}};
+  for (const auto& [topic, frame] : bodies)
+  {
+    // The listener may join /tf after the node sent the pose at a wrench's stamp: a few wrenches
+    // later it has them.
+    bool found = false;
+    std::string why;
+    for (int k = 0; k < 10 && !found; ++k)
+    {
+      auto w = waitFor<geometry_msgs::WrenchStamped>("/fluid_sim/wrench/" + topic, 60.0);
+      ASSERT_TRUE(w) << "nothing on /fluid_sim/wrench/" << topic;
+      ASSERT_EQ(w->header.frame_id, frame);
+      found = buffer.canTransform("world", w->header.frame_id, w->header.stamp, ros::Duration(1.0), &why);
+    }
+    EXPECT_TRUE(found) << "tf has no frame '" << frame << "' at the stamps of 10 of its wrenches: " << why;
+  }
+  // The tank's frame is its pose: the box was given in the fixed frame, so the identity.
+  const geometry_msgs::TransformStamped tank = buffer.lookupTransform("world", "fluid_sim/tank", ros::Time(0));
+  EXPECT_DOUBLE_EQ(tank.transform.translation.x, 0.0);
+  EXPECT_DOUBLE_EQ(tank.transform.rotation.w, 1.0);
+}
+
 // ------------------------------------------------------------------------------ errors.test
 // This test starts fluid_sim_node itself (FLUID_SIM_NODE) with parameters that errors.test
 // loaded under each node name, and reads its exit code and output.
@@ -596,7 +651,8 @@ struct Process
   std::string log;
 };
 
-Process spawnNode(const std::string& name)
+/// Starts fluid_sim_node named `name`, in the namespace `ns` ("" = the root).
+Process spawnNode(const std::string& name, const std::string& ns = "")
 {
   Process p;
   p.log = "/tmp/fluid_sim_rostest_" + name + "_" + std::to_string(::getpid()) + ".log";
@@ -605,6 +661,7 @@ Process spawnNode(const std::string& name)
   posix_spawn_file_actions_addopen(&actions, 1, p.log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
   posix_spawn_file_actions_adddup2(&actions, 1, 2);
   std::vector<std::string> args = {FLUID_SIM_NODE, "__name:=" + name};
+  if (!ns.empty()) args.push_back("__ns:=" + ns);
   std::vector<char*> argv;
   for (auto& a : args) argv.push_back(a.data());
   argv.push_back(nullptr);
@@ -676,7 +733,7 @@ TEST(Errors, OutOfRangeParameterIsNamed)
 
 TEST(Errors, TinyRealTimeFactorFromReconfigureIsRefusedNotACrash)
 {
-  Process p = spawnNode("tiny_rtf");
+  Process p = spawnNode("tiny_rtf", "/tiny_rtf");
   auto stats = waitFor<fluid_msgs::SolverStats>("/tiny_rtf/stats", 60.0);
   ASSERT_TRUE(stats) << readAll(p.log);
   dynamic_reconfigure::Reconfigure srv;
@@ -684,7 +741,7 @@ TEST(Errors, TinyRealTimeFactorFromReconfigureIsRefusedNotACrash)
   rtf.name = "real_time_factor";
   rtf.value = 1e-12;
   srv.request.config.doubles.push_back(rtf);
-  ASSERT_TRUE(ros::service::call("/tiny_rtf/set_parameters", srv)) << readAll(p.log);
+  ASSERT_TRUE(ros::service::call("/tiny_rtf/tiny_rtf/set_parameters", srv)) << readAll(p.log);
   // The server reports the value kept, the node says what it refused, and it runs on.
   bool reported = false;
   for (const auto& d : srv.response.config.doubles)
@@ -725,9 +782,15 @@ TEST(Errors, SceneFileResolvesRelativeMeshesAgainstItsFolder)
   EXPECT_NE(out.find("  block: force"), std::string::npos) << out;
 }
 
+TEST(Errors, BodyNamesGivingTheSameTopicAreNamed)
+{
+  // "a-b" and "a b" are no ROS names; made valid, both would be wrench/a_b.
+  expectStartupError("name_clash", {"'a-b'", "'a b'", "wrench/a_b", "rename one"});
+}
+
 TEST(Errors, LateTfIsWaitedForNotACrash)
 {
-  Process p = spawnNode("late_tf");
+  Process p = spawnNode("late_tf", "/late_tf");
   // No transform for `pusher` yet: the node must wait and say so (it says so after 2 s of
   // waiting; however long it takes this machine to get there, it must stay alive meanwhile).
   int status = 0;

@@ -19,6 +19,7 @@
 #include "fluid_sim/ros/master_watch.h"
 #include "fluid_sim/ros/node_parameters.h"
 #include "fluid_sim/ros/publishers.h"
+#include "fluid_sim/ros/ros_names.h"
 #include "fluid_sim/ros/services.h"
 #include "fluid_sim/ros/solver_loop.h"
 
@@ -84,14 +85,18 @@ struct FluidSimNode::Impl
         toString(sim.scene().solver.boundary_pressure), sim.scene().spacing, opt.fixed_frame.c_str(),
         opt.real_time_factor);
 
-    std::vector<std::string> bodies;
-    for (std::size_t k = 0; k < sim.numBodies(); ++k) bodies.push_back(sim.body(k).name);
+    // Before the threads: a name clash is a start-up error.
+    const std::vector<BodyTopic> bodies = bodyTopics(sim);
+    for (const BodyTopic& b : bodies)
+      if (b.topic != "wrench/" + b.name)
+        ROS_WARN("body '%s': its wrench is published on %s ('%s' is not a valid ROS name)", b.name.c_str(),
+                 nh.resolveName(b.topic).c_str(), b.name.c_str());
     // The threads start only if stop() has not begun: a nodelet unloaded while start() was
     // still building must not get threads launched after its stop() returned.
     std::lock_guard<std::mutex> lock(lifecycle);
     if (stopped) return false;
-    publishers.advertise(pnh, bodies);
-    services.advertise(pnh, opt);
+    publishers.advertise(nh, bodies, sim);
+    services.advertise(nh, pnh, opt);
     publishers.start();
     loop.start();
     master_watch.start();

@@ -3,55 +3,43 @@
 #include <algorithm>
 #include <cstring>
 
+#include <sensor_msgs/point_cloud2_iterator.h>
+
 namespace fluid_sim
 {
 namespace ros_bridge
 {
-namespace
-{
-void setFields(sensor_msgs::PointCloud2& cloud, const std::vector<std::string>& names, std::size_t points)
-{
-  cloud.fields.clear();
-  for (std::size_t k = 0; k < names.size(); ++k)
-  {
-    sensor_msgs::PointField f;
-    f.name = names[k];
-    f.offset = static_cast<std::uint32_t>(4 * k);
-    f.datatype = sensor_msgs::PointField::FLOAT32;
-    f.count = 1;
-    cloud.fields.push_back(f);
-  }
-  cloud.height = 1;
-  cloud.width = static_cast<std::uint32_t>(points);
-  cloud.is_bigendian = false;  // x86 and ARM as ROS runs them; rviz reads it as given
-  cloud.is_dense = true;       // the solver never hands out NaN positions (it reports instead)
-  cloud.point_step = static_cast<std::uint32_t>(4 * names.size());
-  cloud.row_step = cloud.point_step * cloud.width;
-  cloud.data.resize(static_cast<std::size_t>(cloud.row_step));
-}
-}  // namespace
-
 void fillParticleCloud(const FluidSnapshot& fluid, std::size_t max_points, sensor_msgs::PointCloud2& cloud)
 {
   const std::size_t n = fluid.positions.size();
   const std::size_t stride = (max_points == 0 || n <= max_points) ? 1 : (n + max_points - 1) / max_points;
   const std::size_t count = (n + stride - 1) / stride;
-  setFields(cloud, {"x", "y", "z", "vx", "vy", "vz", "pressure", "density", "speed"}, count);
-  float* out = reinterpret_cast<float*>(cloud.data.data());
-  for (std::size_t i = 0; i < n; i += stride)
+  sensor_msgs::PointCloud2Modifier modifier(cloud);
+  modifier.setPointCloud2Fields(kParticleFields, "x", 1, sensor_msgs::PointField::FLOAT32, "y", 1,
+                                sensor_msgs::PointField::FLOAT32, "z", 1, sensor_msgs::PointField::FLOAT32, "vx", 1,
+                                sensor_msgs::PointField::FLOAT32, "vy", 1, sensor_msgs::PointField::FLOAT32, "vz", 1,
+                                sensor_msgs::PointField::FLOAT32, "pressure", 1, sensor_msgs::PointField::FLOAT32,
+                                "density", 1, sensor_msgs::PointField::FLOAT32, "speed", 1,
+                                sensor_msgs::PointField::FLOAT32);
+  modifier.resize(count);      // height 1: an unorganised cloud
+  cloud.is_bigendian = false;  // x86 and ARM as ROS runs them; rviz reads it as given
+  cloud.is_dense = true;       // the solver never hands out NaN positions (it reports instead)
+  // x, y, z and vx, vy, vz are consecutive fields: one iterator each, indexed.
+  sensor_msgs::PointCloud2Iterator<float> position(cloud, "x"), velocity(cloud, "vx");
+  sensor_msgs::PointCloud2Iterator<float> pressure(cloud, "pressure"), density(cloud, "density"), speed(cloud, "speed");
+  for (std::size_t i = 0; i < n; i += stride, ++position, ++velocity, ++pressure, ++density, ++speed)
   {
     const Vec3& x = fluid.positions[i];
     const Vec3& v = fluid.velocities[i];
-    out[0] = float(x.x());
-    out[1] = float(x.y());
-    out[2] = float(x.z());
-    out[3] = float(v.x());
-    out[4] = float(v.y());
-    out[5] = float(v.z());
-    out[6] = float(fluid.pressures[i]);
-    out[7] = float(fluid.densities[i]);
-    out[8] = float(v.norm());
-    out += kParticleFields;
+    position[0] = float(x.x());
+    position[1] = float(x.y());
+    position[2] = float(x.z());
+    velocity[0] = float(v.x());
+    velocity[1] = float(v.y());
+    velocity[2] = float(v.z());
+    *pressure = float(fluid.pressures[i]);
+    *density = float(fluid.densities[i]);
+    *speed = float(v.norm());
   }
 }
 
@@ -60,19 +48,29 @@ void fillBoundaryCloud(const std::vector<Vec3>& positions, const std::vector<Rea
                        sensor_msgs::PointCloud2& cloud)
 {
   const std::size_t n = positions.size();
-  setFields(cloud, {"x", "y", "z", "pressure", "body"}, n);
-  float* out = reinterpret_cast<float*>(cloud.data.data());
+  sensor_msgs::PointCloud2Modifier modifier(cloud);
+  modifier.setPointCloud2Fields(5, "x", 1, sensor_msgs::PointField::FLOAT32, "y", 1, sensor_msgs::PointField::FLOAT32,
+                                "z", 1, sensor_msgs::PointField::FLOAT32, "pressure", 1,
+                                sensor_msgs::PointField::FLOAT32, "body", 1, sensor_msgs::PointField::FLOAT32);
+  modifier.resize(n);
+  cloud.is_bigendian = false;
+  cloud.is_dense = true;
   for (std::size_t k = 0; k < body_ranges.size(); ++k)
   {
+    const std::size_t first = std::min(n, body_ranges[k].first);
     const std::size_t end = std::min(n, body_ranges[k].first + body_ranges[k].second);
-    for (std::size_t i = body_ranges[k].first; i < end; ++i)
+    sensor_msgs::PointCloud2Iterator<float> position(cloud, "x"), pressure(cloud, "pressure"), body(cloud, "body");
+    const int skip = static_cast<int>(first);  // the iterators step by points
+    position += skip;
+    pressure += skip;
+    body += skip;
+    for (std::size_t i = first; i < end; ++i, ++position, ++pressure, ++body)
     {
-      float* p = out + 5 * i;
-      p[0] = float(positions[i].x());
-      p[1] = float(positions[i].y());
-      p[2] = float(positions[i].z());
-      p[3] = pressures.size() == n ? float(pressures[i]) : 0.0f;
-      p[4] = float(k);
+      position[0] = float(positions[i].x());
+      position[1] = float(positions[i].y());
+      position[2] = float(positions[i].z());
+      *pressure = pressures.size() == n ? float(pressures[i]) : 0.0f;
+      *body = float(k);
     }
   }
 }
@@ -105,6 +103,24 @@ Pose toPose(const geometry_msgs::Transform& transform)
   const geometry_msgs::Vector3& t = transform.translation;
   const geometry_msgs::Quaternion& q = transform.rotation;
   return Pose::fromTranslationQuaternion(Vec3d(t.x, t.y, t.z), q.w, q.x, q.y, q.z);
+}
+
+geometry_msgs::TransformStamped toTransformStamped(const Pose& pose, const std::string& parent,
+                                                   const std::string& child, const ros::Time& stamp)
+{
+  geometry_msgs::TransformStamped t;
+  t.header.stamp = stamp;
+  t.header.frame_id = parent;
+  t.child_frame_id = child;
+  t.transform.translation.x = pose.translation.x();
+  t.transform.translation.y = pose.translation.y();
+  t.transform.translation.z = pose.translation.z();
+  const Eigen::Quaterniond q = pose.rotation.normalized();
+  t.transform.rotation.w = q.w();
+  t.transform.rotation.x = q.x();
+  t.transform.rotation.y = q.y();
+  t.transform.rotation.z = q.z();
+  return t;
 }
 
 fluid_msgs::SolverStats toSolverStats(const StepReport& report, const Simulation& sim, double real_time_factor,

@@ -331,12 +331,24 @@ std::vector<BoundaryConfig> readRobotLinks(const ros::NodeHandle& nh, const ros:
     ROS_INFO("robot_description_param is empty: no robot links, only the scene's own bodies");
     return {};
   }
+  // A relative name is searched for from the node's namespace upwards (as robot_description
+  // usually is): the node in /fluid_sim finds /fluid_sim/robot_description, else
+  // /robot_description. An absolute name is taken as it is.
+  const std::string& key = opt.robot_description_param;
+  std::string found;
+  const bool absolute = key[0] == '/';
+  if (absolute || !nh.searchParam(key, found)) found = nh.resolveName(key);
   std::string xml;
-  if (!nh.getParam(opt.robot_description_param, xml))
-    throw StartupError("missing robot_description: parameter '" + nh.resolveName(opt.robot_description_param) +
-                       "' is not set (set it, e.g. with <param name=\"robot_description\" textfile=\"...\"/>, or "
+  if (!nh.getParam(found, xml))
+  {
+    const std::string top = "/" + key;  // the last place searched
+    const std::string where = absolute || found == top ? "parameter '" + found + "' is"
+                                                       : "none of the parameters '" + found + "' ... '" + top + "' is";
+    throw StartupError("missing robot_description: " + where +
+                       " set (set it, e.g. with <param name=\"robot_description\" textfile=\"...\"/>, or "
                        "set ~robot_description_param to \"\" to run without a robot)");
-  const std::string source = "robot_description (" + nh.resolveName(opt.robot_description_param) + ")";
+  }
+  const std::string source = "robot_description (" + found + ")";
   try
   {
     const io::UrdfRobot robot = io::parseUrdf(xml, source);

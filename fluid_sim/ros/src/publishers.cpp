@@ -56,14 +56,34 @@ Publishers::~Publishers()
   join();
 }
 
-void Publishers::advertise(ros::NodeHandle& pnh, const std::vector<std::string>& body_names)
+void Publishers::advertise(ros::NodeHandle& nh, const std::vector<BodyTopic>& bodies, const Simulation& sim)
 {
-  pub_particles_ = pnh.advertise<sensor_msgs::PointCloud2>("particles", 2);
-  pub_boundary_ = pnh.advertise<sensor_msgs::PointCloud2>("boundary_particles", 1, true);
-  pub_wrenches_ = pnh.advertise<fluid_msgs::ContactWrenchArray>("contact_wrenches", 10);
-  pub_stats_ = pnh.advertise<fluid_msgs::SolverStats>("stats", 10);
-  for (const std::string& name : body_names)
-    pub_link_wrench_.push_back(pnh.advertise<geometry_msgs::WrenchStamped>("wrench/" + name, 10));
+  pub_particles_ = nh.advertise<sensor_msgs::PointCloud2>("particles", 2);
+  pub_boundary_ = nh.advertise<sensor_msgs::PointCloud2>("boundary_particles", 1, true);
+  pub_wrenches_ = nh.advertise<fluid_msgs::ContactWrenchArray>("contact_wrenches", 10);
+  pub_stats_ = nh.advertise<fluid_msgs::SolverStats>("stats", 10);
+  bodies_ = bodies;
+  for (const BodyTopic& b : bodies_)
+    pub_link_wrench_.push_back(nh.advertise<geometry_msgs::WrenchStamped>(b.topic, 10));
+
+  // Scene bodies are no tf frames of anyone else's: their wrenches are stamped in frames the
+  // node publishes, children of the fixed frame at the bodies' poses.
+  std::vector<geometry_msgs::TransformStamped> fixed;
+  bool any_moving = false;
+  for (std::size_t k = 0; k < bodies_.size() && k < sim.numBodies(); ++k)
+  {
+    if (!bodies_[k].scene_body) continue;
+    if (bodies_[k].moving)
+      any_moving = true;
+    else
+      fixed.push_back(toTransformStamped(sim.body(k).pose, opt_.fixed_frame, bodies_[k].frame, ros::Time::now()));
+  }
+  if (!fixed.empty())
+  {
+    tf_static_ = std::make_unique<tf2_ros::StaticTransformBroadcaster>();
+    tf_static_->sendTransform(fixed);
+  }
+  if (any_moving) tf_ = std::make_unique<tf2_ros::TransformBroadcaster>();
 }
 
 void Publishers::handOver()
@@ -140,12 +160,21 @@ void Publishers::run()
       fillBoundaryCloud(f.boundary, f.boundary_pressure, f.body_ranges, *cloud);
       pub_boundary_.publish(cloud);
     }
+    if (tf_)
+    {
+      // Before the wrenches stamped in them.
+      std::vector<geometry_msgs::TransformStamped> moving;
+      for (std::size_t k = 0; k < bodies_.size() && k < f.body_poses.size(); ++k)
+        if (bodies_[k].moving)
+          moving.push_back(toTransformStamped(f.body_poses[k], opt_.fixed_frame, bodies_[k].frame, f.stamp));
+      tf_->sendTransform(moving);
+    }
     pub_wrenches_.publish(f.wrenches);
     for (std::size_t k = 0; k < f.wrenches.wrenches.size() && k < pub_link_wrench_.size(); ++k)
     {
       geometry_msgs::WrenchStamped ws;
       ws.header.stamp = f.stamp;
-      ws.header.frame_id = f.wrenches.wrenches[k].link;
+      ws.header.frame_id = bodies_[k].frame;
       ws.wrench = f.wrenches.wrenches[k].wrench;
       pub_link_wrench_[k].publish(ws);
     }

@@ -12,11 +12,11 @@ namespace ros_bridge
 {
 Services::Services(SolverLoop& loop, Publishers& publishers) : loop_(loop), publishers_(publishers) {}
 
-void Services::advertise(ros::NodeHandle& pnh, const NodeOptions& opt)
+void Services::advertise(ros::NodeHandle& nh, ros::NodeHandle& pnh, const NodeOptions& opt)
 {
-  srv_reset_ = pnh.advertiseService("reset", &Services::onReset, this);
-  srv_pause_ = pnh.advertiseService("pause", &Services::onPause, this);
-  srv_step_ = pnh.advertiseService("step", &Services::onStep, this);
+  srv_reset_ = nh.advertiseService("reset", &Services::onReset, this);
+  srv_pause_ = nh.advertiseService("pause", &Services::onPause, this);
+  srv_step_ = nh.advertiseService("step", &Services::onStep, this);
 
   reconfigure_ = std::make_unique<dynamic_reconfigure::Server<fluid_sim::FluidSimConfig>>(reconfigure_mutex_, pnh);
   const SceneConfig& s = loop_.simulation().scene();

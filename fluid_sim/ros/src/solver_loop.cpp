@@ -543,6 +543,8 @@ void SolverLoop::publishFrame(const StepReport& rep, double paced_rtf)
     f.body_ranges = body_ranges_;
     boundary_dirty_ = false;
   }
+  f.body_poses.resize(sim_->numBodies());
+  for (std::size_t k = 0; k < sim_->numBodies(); ++k) f.body_poses[k] = sim_->body(k).pose;
   f.wrenches.header.stamp = f.stamp;
   f.wrenches.header.frame_id = opt_.fixed_frame;
   wrench_means_.take(*sim_, f.wrenches.wrenches);

@@ -27,7 +27,10 @@ public:
 class FluidSimNode
 {
 public:
-  /// Topics and services go to `pnh` (the node's private namespace: /fluid_sim/particles, ...).
+  /// Topics and services go to `nh` (the node's namespace: for the node /fluid_sim/fluid_sim of
+  /// launch/fluid_sim.launch, /fluid_sim/particles, ...), so that remapping `particles` works;
+  /// the parameters and dynamic_reconfigure are read from and served in `pnh` (its private
+  /// namespace, /fluid_sim/fluid_sim). tf and /clock are global names.
   FluidSimNode(ros::NodeHandle nh, ros::NodeHandle pnh);
   ~FluidSimNode();
   FluidSimNode(const FluidSimNode&) = delete;

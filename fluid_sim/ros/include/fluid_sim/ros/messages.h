@@ -8,6 +8,7 @@
 #include <vector>
 
 #include <geometry_msgs/Transform.h>
+#include <geometry_msgs/TransformStamped.h>
 #include <geometry_msgs/Wrench.h>
 #include <sensor_msgs/PointCloud2.h>
 
@@ -60,6 +61,10 @@ fluid_msgs::ContactWrench toContactWrench(const BodyInfo& body, const Vec3d& for
 
 /// A tf transform (translation in m) as a pose, its quaternion normalised.
 Pose toPose(const geometry_msgs::Transform& transform);
+
+/// `pose` (child -> parent, m) as the tf transform from `parent` to `child` at `stamp`.
+geometry_msgs::TransformStamped toTransformStamped(const Pose& pose, const std::string& parent,
+                                                   const std::string& child, const ros::Time& stamp);
 
 /// The stats message of step `report` of `sim` (header left to the caller). `real_time_factor`:
 /// the measured one (simulated s per wall s); `status`: "ok", "not_converged" or "unstable: ...".

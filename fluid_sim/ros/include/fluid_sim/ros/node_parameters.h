@@ -95,9 +95,9 @@ SceneConfig readScene(const NodeParameters& params);
 XmlRpc::XmlRpcValue yamlToParameters(const std::string& yaml_text);
 
 /// The robot's links as bodies (shapes in link frames, externally posed; containers marked
-/// inside) from the URDF in the parameter opt.robot_description_param of `nh`; empty when that
-/// option is "". Sampled at scene.spacing; names must differ from the scene's bodies. Throws
-/// StartupError.
+/// inside) from the URDF in the parameter opt.robot_description_param, searched for from the
+/// namespace of `nh` upwards (an absolute name: that parameter); empty when that option is "". Sampled at
+/// scene.spacing; names must differ from the scene's bodies. Throws StartupError.
 std::vector<BoundaryConfig> readRobotLinks(const ros::NodeHandle& nh, const ros::NodeHandle& pnh,
                                            const NodeOptions& opt, const SceneConfig& scene);
 

@@ -1,12 +1,13 @@
 #pragma once
 // Publishers of the node's topics (particles, boundary_particles, contact_wrenches,
-// wrench/<body>, stats) and their thread. The solver thread fills a Frame between steps and
-// hands it over; the publisher thread turns it into messages (through the converter,
-// messages.h). A slow publisher drops frames; it never blocks the solver.
+// wrench/<body>, stats) and of the scene bodies' tf frames, and their thread. The solver thread fills a Frame between
+// steps and hands it over; the publisher thread turns it into messages (through the converter, messages.h). A slow
+// publisher drops frames; it never blocks the solver.
 
 #include <atomic>
 #include <condition_variable>
 #include <functional>
+#include <memory>
 #include <mutex>
 #include <string>
 #include <thread>
@@ -15,12 +16,15 @@
 
 #include <ros/node_handle.h>
 #include <ros/publisher.h>
+#include <tf2_ros/static_transform_broadcaster.h>
+#include <tf2_ros/transform_broadcaster.h>
 
 #include "fluid_msgs/ContactWrenchArray.h"
 #include "fluid_msgs/SolverStats.h"
 #include "fluid_sim/core/simulation.h"
 #include "fluid_sim/ros/messages.h"
 #include "fluid_sim/ros/node_parameters.h"
+#include "fluid_sim/ros/ros_names.h"
 
 namespace fluid_sim
 {
@@ -36,6 +40,7 @@ struct Frame
   std::vector<Real> boundary_pressure;                           // Pa
   std::vector<std::pair<std::size_t, std::size_t>> body_ranges;  // (first, count) per body
   fluid_msgs::ContactWrenchArray wrenches;
+  std::vector<Pose> body_poses;  // body -> fixed frame (m), per body (moving scene bodies go on tf)
   fluid_msgs::SolverStats stats;
 };
 
@@ -79,8 +84,11 @@ public:
     on_failure_ = std::move(callback);
   }
 
-  /// Advertises the topics in `pnh`, with one wrench/<name> topic per body.
-  void advertise(ros::NodeHandle& pnh, const std::vector<std::string>& body_names);
+  /// Advertises the topics in `nh` (the node's namespace, so that they are remapped as users
+  /// expect), with one wrench topic per body, and publishes the frames of the scene bodies that
+  /// do not move on /tf_static (their poses in `sim`). Moving scene bodies go on /tf with each
+  /// frame.
+  void advertise(ros::NodeHandle& nh, const std::vector<BodyTopic>& bodies, const Simulation& sim);
 
   /// Most points in the particles cloud (0 = all); may change while running.
   void setMaxPoints(std::size_t max_points)
@@ -118,6 +126,9 @@ private:
   std::atomic<std::size_t> max_points_{0};
   ros::Publisher pub_particles_, pub_boundary_, pub_wrenches_, pub_stats_;
   std::vector<ros::Publisher> pub_link_wrench_;  // per body, wrench/<name>
+  std::vector<BodyTopic> bodies_;                // per body: topic and wrench frame
+  std::unique_ptr<tf2_ros::TransformBroadcaster> tf_;
+  std::unique_ptr<tf2_ros::StaticTransformBroadcaster> tf_static_;
 
   // The solver fills `back_` and swaps it with `pending_`; the publisher swaps `pending_` with
   // `front_` and publishes from it.

@@ -30,9 +30,11 @@ class Services
 public:
   Services(SolverLoop& loop, Publishers& publishers);
 
-  /// Advertises reset, pause and step in `pnh` and starts the dynamic_reconfigure server there
-  /// from the simulation's settings and the node options (not from the .cfg defaults).
-  void advertise(ros::NodeHandle& pnh, const NodeOptions& opt);
+  /// Advertises reset, pause and step in `nh` (the node's namespace, so that they are remapped
+  /// as users expect) and starts the dynamic_reconfigure server in `pnh` (the private namespace,
+  /// where the parameters it sets live) from the simulation's settings and the node options (not
+  /// from the .cfg defaults).
+  void advertise(ros::NodeHandle& nh, ros::NodeHandle& pnh, const NodeOptions& opt);
 
   /// Stops serving reset, pause and step.
   void shutdown();
