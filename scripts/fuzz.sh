@@ -49,14 +49,15 @@ seed() {
   shift
   mkdir -p "$FUZZ/corpus/$harness"
   local f
-  for f in "$@"; do [[ -f "$f" ]] && cp "$f" "$FUZZ/corpus/$harness/"; done
+  # Named after their paths (package.xml is in several folders).
+  for f in "$@"; do [[ -f "$f" ]] && cp "$f" "$FUZZ/corpus/$harness/${f//\//_}"; done
   if [[ -d "test/fuzz/regressions/$harness" ]]; then
-    cp test/fuzz/regressions/"$harness"/* "$FUZZ/corpus/$harness/" 2> /dev/null || true
+    find "test/fuzz/regressions/$harness" -type f ! -name "*.expected" -exec cp {} "$FUZZ/corpus/$harness/" \;
   fi
 }
 
 seed_scene() {
-  seed scene config/*.yaml config/validation/*.yaml test/ros/*.yaml
+  seed scene config/*.yaml config/validation/*.yaml test/ros/*.yaml test/fuzz/seeds/scene/*.yaml
   # The same scenes with --set overrides after the NUL that starts them (fuzz_targets.h).
   local f out
   for f in config/hydrostatic_tank.yaml config/paddle_robot.yaml config/mesh_tank.yaml; do

@@ -9,9 +9,10 @@
 //
 // Files: every input is written to a scratch folder made once per process under $TMPDIR (removed
 // at exit). The scene and URDF harnesses resolve package:// URIs and relative paths into that
-// folder, which holds copies of the repository's meshes and URDFs (meshes/, urdf/), so that the
-// fuzzer reaches mesh and URDF loading through a scene without reading anything else; absolute
-// paths in an input are read as given (read only, nothing is written outside the scratch folder).
+// folder, which holds copies of the repository's meshes and URDFs (meshes/, urdf/) and a particle
+// frame (frame.ply), so that the fuzzer reaches mesh, URDF and frame loading through a scene
+// without reading anything else; absolute paths in an input are read as given (read only, nothing
+// is written outside the scratch folder).
 
 #include <cstddef>
 #include <cstdint>
@@ -80,6 +81,11 @@ private:
     copyAll(source / "test/fixtures/fluid_sim_test_pkg/meshes", "meshes", ".ply");
     copyAll(source / "urdf", "urdf", ".urdf");
     copyAll(source / "test/fixtures/fluid_sim_test_pkg/urdf", "urdf", ".urdf");
+    // A saved state for `fluid: - particles: {file: frame.ply}`: three particles one spacing apart.
+    std::ofstream(fs::path(dir_) / "frame.ply")
+        << "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+           "property float vx\nproperty float vy\nproperty float vz\nend_header\n"
+           "0 0 0 0 0 0\n0.02 0 0 0 0 -1\n0 0.02 0 0.5 0 0\n";
   }
   std::string dir_;
 };
