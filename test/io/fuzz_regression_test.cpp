@@ -94,17 +94,10 @@ TEST(FuzzRegressions, EveryHarnessFolderIsKnown)
     EXPECT_EQ(harnesses().count(item.path().filename().string()), 1u) << item.path();
 }
 
-class FuzzRegression : public ::testing::TestWithParam<std::string>
+TEST(FuzzRegressions, EveryInputIsRefusedWithANamedErrorOrAccepted)
 {
-};
-
-TEST_P(FuzzRegression, RefusedWithANamedErrorOrAccepted)
-{
-  if (!fs::exists(kRegressions / GetParam())) GTEST_SKIP() << "no regression inputs for " << GetParam();
-  EXPECT_GT(replay(GetParam()), 0);
+  int inputs = 0;
+  for (const auto& item : fs::directory_iterator(kRegressions))
+    if (harnesses().count(item.path().filename().string()) == 1) inputs += replay(item.path().filename().string());
+  EXPECT_GT(inputs, 0);
 }
-
-INSTANTIATE_TEST_SUITE_P(Harness, FuzzRegression,
-                         ::testing::Values("scene", "urdf", "mesh_stl", "mesh_obj", "mesh_dae", "mesh_ply", "ply_frame",
-                                           "package_xml"),
-                         [](const ::testing::TestParamInfo<std::string>& info) { return info.param; });
