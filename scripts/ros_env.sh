@@ -17,7 +17,8 @@ fi
 _fluid_nounset=0
 [[ $- == *u* ]] && _fluid_nounset=1
 set +u
+# FLUID_SIM_BUILD_DIR: another build folder of the repository (scripts/sanitize.sh's).
 # shellcheck disable=SC1091
-source "$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)/build/devel/setup.bash"
+source "$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)/${FLUID_SIM_BUILD_DIR:-build}/devel/setup.bash"
 ((_fluid_nounset)) && set -u
 unset _fluid_nounset

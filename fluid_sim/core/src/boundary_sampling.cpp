@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <sstream>
 #include <tuple>
 #include <utility>
 
@@ -56,6 +57,8 @@ double estimateBoundaryParticles(const BoundaryConfig& b, double s, double fluid
         all *= n + 1.0;
         interior *= std::max(0.0, n - 1.0);
       }
+      // A box too large for doubles: inf - inf would be NaN, which no budget check refuses by name.
+      if (std::isinf(all)) return std::numeric_limits<double>::infinity();
       return all - interior;
     }
     case ShapeType::Sphere:
@@ -83,6 +86,14 @@ double estimateBoundaryParticles(const BoundaryConfig& b, double s, double fluid
       return 2.0 * meshArea(b.mesh) / (s * s);
   }
   return 0.0;
+}
+
+std::string estimateText(double estimate)
+{
+  if (std::abs(estimate) <= 1e15) return std::to_string(std::llround(estimate));
+  std::ostringstream os;
+  os << estimate;
+  return os.str();
 }
 
 std::vector<Vec3d> sampleBoundary(const BoundaryConfig& b, double s, double fluid_spacing)

@@ -37,6 +37,16 @@ int crossing(const Vec3d& a, const Vec3d& b, const Vec3d& c, const Vec3d& p, con
   return det < 0.0 ? 1 : -1;
 }
 
+/// The bin of `coordinate` among n bins of width `bin` from `origin`, clamped to [0, n - 1] before
+/// the conversion to int (the drift margin can reach far beyond the box, by far more bins than an
+/// int counts when the mesh is flat).
+int binOf(double coordinate, double origin, double bin, int n)
+{
+  const double b = std::floor((coordinate - origin) / bin);
+  if (!(b > 0.0)) return 0;  // also NaN
+  return b >= double(n - 1) ? n - 1 : int(b);
+}
+
 /// The ray direction of the inside test (unit, close to +x).
 Vec3d insideRayDirection()
 {
@@ -67,8 +77,10 @@ MeshInsideIndex::MeshInsideIndex(const TriangleMesh& mesh)
   const double ey = std::max(hi_.y() - lo_.y(), 1e-12), ez = std::max(hi_.z() - lo_.z(), 1e-12);
   const double bins = std::clamp(double(num_triangles_), 1.0, 512.0 * 512.0);
   const double aspect = ey / ez;
-  ny_ = std::clamp(int(std::ceil(std::sqrt(bins * aspect))), 1, 512);
-  nz_ = std::clamp(int(std::ceil(bins / ny_)), 1, 512);
+  // Clamped before the conversion: a flat mesh (ez at its 1e-12 floor) has an aspect ratio far
+  // beyond what an int holds.
+  ny_ = int(std::clamp(std::ceil(std::sqrt(bins * aspect)), 1.0, 512.0));
+  nz_ = int(std::clamp(std::ceil(bins / ny_), 1.0, 512.0));
   bin_y_ = ey / ny_;
   bin_z_ = ez / nz_;
   // A ray that starts at (y, z) drifts by up to skew * (x extent) before it leaves the box: a
@@ -76,9 +88,7 @@ MeshInsideIndex::MeshInsideIndex(const TriangleMesh& mesh)
   const double drift_y = kSkewY * (hi_.x() - lo_.x()) * 1.001 + 1e-12;
   const double drift_z = kSkewZ * (hi_.x() - lo_.x()) * 1.001 + 1e-12;
   const auto binRange = [](double lo, double hi, double origin, double bin, int n) {
-    const int a = std::clamp(int(std::floor((lo - origin) / bin)), 0, n - 1);
-    const int b = std::clamp(int(std::floor((hi - origin) / bin)), 0, n - 1);
-    return std::pair<int, int>(a, b);
+    return std::pair<int, int>(binOf(lo, origin, bin, n), binOf(hi, origin, bin, n));
   };
   std::vector<std::uint32_t> count(std::size_t(ny_) * nz_ + 1, 0);
   std::vector<std::array<int, 4>> ranges(num_triangles_);
@@ -115,8 +125,8 @@ bool MeshInsideIndex::matches(const TriangleMesh& mesh) const
 int MeshInsideIndex::winding(const TriangleMesh& mesh, const Vec3d& p) const
 {
   if (num_triangles_ == 0 || (p.array() < lo_.array()).any() || (p.array() > hi_.array()).any()) return 0;
-  const int y = std::clamp(int(std::floor((p.y() - lo_.y()) / bin_y_)), 0, ny_ - 1);
-  const int z = std::clamp(int(std::floor((p.z() - lo_.z()) / bin_z_)), 0, nz_ - 1);
+  const int y = binOf(p.y(), lo_.y(), bin_y_, ny_);
+  const int z = binOf(p.z(), lo_.z(), bin_z_, nz_);
   const std::size_t bin = std::size_t(z) * ny_ + y;
   const Vec3d dir = insideRayDirection();
   int w = 0;

@@ -305,8 +305,7 @@ void validate(const SceneConfig& s)
     const double ss = sampleSpacing(b, s.spacing);  // m
     const double estimate = estimateBoundaryParticles(b, ss, s.spacing);
     if (!(estimate <= double(s.max_boundary_particles)))
-      throw ConfigError(key, "'" + b.name + "' would need about " +
-                                 std::to_string(static_cast<long long>(std::round(estimate))) +
+      throw ConfigError(key, "'" + b.name + "' would need about " + estimateText(estimate) +
                                  " boundary particles at sample spacing " + str(ss) +
                                  " m, more than max_boundary_particles = " + std::to_string(s.max_boundary_particles) +
                                  "; use a coarser spacing or sample_spacing, a smaller body, or raise "

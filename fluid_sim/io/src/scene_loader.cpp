@@ -344,9 +344,22 @@ SceneMesh readMesh(const Entry& e, const LoadContext& ctx)
     return out;
   }
   if (auto scale = r.get("scale")) throw ConfigError(scale->key, "only with file" + lineOf(scale->node));
-  forEachItem(r.require("vertices"), [&](const Entry& v) { out.mesh.vertices.push_back(readVec3(v)); });
-  forEachItem(r.require("triangles"),
-              [&](const Entry& t) { out.mesh.triangles.push_back(readArray<int, 3>(t, "a triangle [i, j, k]")); });
+  // Checked here, with their lines, rather than left to validate(): the surface's orientation and
+  // the particle budget (checkBudget) use the mesh before validate() runs.
+  forEachItem(r.require("vertices"), [&](const Entry& v) {
+    const Vec3d p = readVec3(v);
+    checkValue(v, p.allFinite(), "must be finite");
+    out.mesh.vertices.push_back(p);
+  });
+  const Entry triangles = r.require("triangles");
+  forEachItem(triangles, [&](const Entry& t) {
+    const auto triangle = readArray<int, 3>(t, "a triangle [i, j, k]");
+    for (int k : triangle)
+      checkValue(t, k >= 0 && std::size_t(k) < out.mesh.vertices.size(),
+                 "vertex index " + std::to_string(k) + " out of range (the mesh has " +
+                     std::to_string(out.mesh.vertices.size()) + " vertices, numbered from 0)");
+    out.mesh.triangles.push_back(triangle);
+  });
   r.finish();
   out.closed = orientOutward(out.mesh);
   buildInsideIndex(out.mesh);
@@ -393,13 +406,13 @@ void checkBudget(const Entry& e, const BoundaryConfig& b, const LoadContext& ctx
   if (!(ss > 0.0)) return;                          // validate() reports the spacing
   const double estimate = estimateBoundaryParticles(b, ss, ctx.spacing);
   if (!(estimate <= double(ctx.max_boundary_particles)))
-    throw ConfigError(
-        e.key, "'" + b.name + "' would need about " + std::to_string(static_cast<long long>(std::round(estimate))) +
-                   " boundary particles at sample spacing " + std::to_string(ss) +
-                   " m, more than max_boundary_particles = " + std::to_string(ctx.max_boundary_particles) +
-                   "; use a coarser spacing or sample_spacing, a smaller body, or raise "
-                   "max_boundary_particles" +
-                   lineOf(e.node));
+    throw ConfigError(e.key,
+                      "'" + b.name + "' would need about " + estimateText(estimate) +
+                          " boundary particles at sample spacing " + std::to_string(ss) +
+                          " m, more than max_boundary_particles = " + std::to_string(ctx.max_boundary_particles) +
+                          "; use a coarser spacing or sample_spacing, a smaller body, or raise "
+                          "max_boundary_particles" +
+                          lineOf(e.node));
 }
 
 /// urdf: {file, links, joint_positions}: one body per selected link, each with the entry's common

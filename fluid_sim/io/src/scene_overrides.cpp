@@ -37,6 +37,9 @@ std::vector<PathStep> parseKeyPath(const std::string& key)
       const std::string digits = key.substr(i + 1, close == std::string::npos ? 0 : close - i - 1);
       if (close == std::string::npos || digits.empty() || digits.find_first_not_of("0123456789") != std::string::npos)
         throw malformed();
+      // No scene list has a billion entries; a longer number would overflow std::stoul (which
+      // throws std::out_of_range, not a ConfigError).
+      if (digits.size() > 9) throw ConfigError(key, "list index " + digits + " in --set is out of range");
       steps.push_back({"", std::stoul(digits)});
       i = close + 1;
     }

@@ -9,6 +9,7 @@
 //   boundary_volume.cpp     V_b (Eq. A3) and the flat-layer factor gamma
 
 #include <cstddef>
+#include <string>
 #include <vector>
 
 #include "fluid_sim/core/scene_config.h"
@@ -29,6 +30,10 @@ std::vector<Vec3d> sampleBoundary(const BoundaryConfig& b, double s, double flui
 /// what the sampler makes on typical meshes (1.0-1.8). validate() compares it with
 /// max_boundary_particles.
 double estimateBoundaryParticles(const BoundaryConfig& b, double s, double fluid_spacing);
+
+/// An estimate for messages: the whole number ("12345") up to 10^15, beyond that (and for inf or
+/// NaN, which no integer type holds) as a stream prints it ("1e+30", "inf").
+std::string estimateText(double estimate);
 
 /// True if body-frame point p (m) lies inside the body's geometric solid (for a closed shape).
 /// Open meshes have no inside and return false. A closed mesh counts a point inside where its

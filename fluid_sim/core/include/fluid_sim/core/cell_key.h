@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <cstddef>
+#include <cstdint>
 
 #include "fluid_sim/core/types.h"
 
@@ -18,20 +19,36 @@ struct CellKey
   }
 };
 
-/// Spatial hash of Teschner et al. (2003): large primes, combined with xor.
+/// Spatial hash of Teschner et al. (2003): large primes, combined with xor. Multiplied as unsigned
+/// 64-bit numbers: a key far from the origin wraps around (defined) instead of overflowing a signed
+/// product (undefined); keys whose products fit give the same hash either way.
 struct CellKeyHash
 {
   std::size_t operator()(const CellKey& k) const
   {
-    return std::size_t(k.x * 73856093LL ^ k.y * 19349663LL ^ k.z * 83492791LL);
+    return std::size_t(std::uint64_t(k.x) * 73856093ULL ^ std::uint64_t(k.y) * 19349663ULL ^
+                       std::uint64_t(k.z) * 83492791ULL);
   }
 };
+
+/// Largest cell index cellKeyOf() returns (2^62): beyond it a double does not convert to a long
+/// long, and key +- 1 (the neighbouring cells) must not overflow either.
+constexpr double kMaxCellIndex = 4611686018427387904.0;
+
+/// floor(coordinate / cell), saturated at +-kMaxCellIndex (NaN at -kMaxCellIndex): every point gets
+/// a cell, a point too far out for an index shares the outermost cell with the others as far out.
+inline long long cellIndexOf(double coordinate, double cell)
+{
+  const double index = std::floor(coordinate / cell);
+  if (!(index > -kMaxCellIndex)) return -static_cast<long long>(kMaxCellIndex);
+  if (!(index < kMaxCellIndex)) return static_cast<long long>(kMaxCellIndex);
+  return static_cast<long long>(index);
+}
 
 /// The cell of point p (m) in a grid of cubic cells of side `cell` (m).
 inline CellKey cellKeyOf(const Vec3d& p, double cell)
 {
-  return {(long long)std::floor(p.x() / cell), (long long)std::floor(p.y() / cell),
-          (long long)std::floor(p.z() / cell)};
+  return {cellIndexOf(p.x(), cell), cellIndexOf(p.y(), cell), cellIndexOf(p.z(), cell)};
 }
 
 }  // namespace fluid_sim

@@ -1,0 +1,133 @@
+#!/usr/bin/env bash
+# Builds the core, io and ROS-layer (node) tests with sanitizers, each flavour in its own build
+# folder, runs them and exits non-zero on any failure or sanitizer report:
+#   asan: AddressSanitizer + UndefinedBehaviorSanitizer (build-asan/)
+#   tsan: ThreadSanitizer (build-tsan/), solver_loop_race_test included
+# Tests run: ctest labels core, io and ros (the gtests, the rostests that start the node, the
+# headless demo); not the validation cases (the runner on whole scenes, minutes each).
+#
+#   bash scripts/sanitize.sh [--asan | --tsan] [--quick] [--no-rostest]
+#
+#   --asan, --tsan  one flavour only (default: both)
+#   --quick         skip the long tests (cube buoyancy, 3 s at rest, the runner's whole scenes,
+#                   the headless demo)
+#   --no-rostest    skip the tests that start a ROS master (rostests, the demo)
+#
+# ThreadSanitizer needs every library whose threads touch our data instrumented; the core's
+# threads are TBB's. An uninstrumented libtbb hides TBB's own synchronisation from TSan, which then
+# reports races between a task and the code that spawned it (false reports in fluid_sim code, that
+# no suppression may hide). The tsan flavour therefore builds oneTBB from source with
+# -fsanitize=thread (once, into build-tsan-tbb/) and links the tests against it. Give the source of
+# the version Debian ships (2021.8.0) in FLUID_SIM_TBB_SOURCE, e.g. from
+#   git clone --branch v2021.8.0 --depth 1 https://github.com/oneapi-src/oneTBB
+#   apt-get source tbb              (with a deb-src line in the apt sources)
+# scripts/tsan.supp lists what TSan may ignore, each entry with its reason.
+set -euo pipefail
+
+ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+cd "$ROOT"
+
+flavours=(asan tsan)
+quick=0
+rostest=1
+for arg in "$@"; do
+  case "$arg" in
+    --asan) flavours=(asan) ;;
+    --tsan) flavours=(tsan) ;;
+    --quick) quick=1 ;;
+    --no-rostest) rostest=0 ;;
+    *)
+      sed -n '2,14p' "$0"
+      exit 2
+      ;;
+  esac
+done
+
+jobs="$(nproc 2> /dev/null || echo 2)"
+log() { printf '[sanitize] %s\n' "$*"; }
+export PYENV_VERSION=system
+
+# Tests left out by --quick (minutes under a sanitizer): the two long physical checks (as
+# scripts/test.sh leaves them out of the double build), the runner's whole-scene tests and the demo.
+long_tests='Buoyancy|Rest\.|ros_demo_headless'
+# Tests that start a ROS master.
+ros_master_tests='rostest|ros_demo_headless'
+
+# The instrumented oneTBB for the tsan flavour; prints its CMake package folder.
+tsan_tbb() {
+  local prefix="$ROOT/build-tsan-tbb/install"
+  if [[ ! -f "$prefix/lib/cmake/TBB/TBBConfig.cmake" ]]; then
+    local src="${FLUID_SIM_TBB_SOURCE:-}"
+    if [[ -z "$src" || ! -f "$src/CMakeLists.txt" ]]; then
+      echo "[sanitize] error: the tsan flavour needs oneTBB's source (FLUID_SIM_TBB_SOURCE=<folder>, version" >&2
+      echo "[sanitize]        2021.8.0 as in Debian 12) to build it with ThreadSanitizer; see the top of $0" >&2
+      exit 2
+    fi
+    log "building oneTBB from $src with -fsanitize=thread (build-tsan-tbb/)" >&2
+    cmake -S "$src" -B "$ROOT/build-tsan-tbb" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DTBB_SANITIZE=thread \
+      -DTBB_TEST=OFF -DTBB_EXAMPLES=OFF -DTBB_STRICT=OFF -DCMAKE_INSTALL_PREFIX="$prefix" > /dev/null
+    nice cmake --build "$ROOT/build-tsan-tbb" -j"$jobs" > /dev/null
+    cmake --install "$ROOT/build-tsan-tbb" > /dev/null
+  fi
+  echo "$prefix/lib/cmake/TBB"
+}
+
+declare -A summary
+status=0
+for flavour in "${flavours[@]}"; do
+  dir="build-$flavour"
+  extra=()
+  case "$flavour" in
+    asan)
+      flags="-fsanitize=address,undefined -fno-sanitize-recover=undefined -fno-omit-frame-pointer"
+      extra+=(-DFLUID_SIM_TSAN_TESTS=OFF)
+      ;;
+    tsan)
+      flags="-fsanitize=thread"
+      # solver_loop_race_test: the solver loop's threads, in a build where everything is instrumented.
+      extra+=(-DFLUID_SIM_TSAN_TESTS=ON "-DTBB_DIR=$(tsan_tbb)")
+      ;;
+  esac
+  start=$SECONDS
+  log "$flavour: configure and build $dir/"
+  mkdir -p "$dir"
+  cmake -S . -B "$dir" -DCMAKE_BUILD_TYPE=RelWithDebInfo "-DCMAKE_CXX_FLAGS=$flags" \
+    "-DCMAKE_EXE_LINKER_FLAGS=$flags" "-DCMAKE_SHARED_LINKER_FLAGS=$flags" "${extra[@]}" > "$dir/configure.log" 2>&1 ||
+    {
+      cat "$dir/configure.log"
+      exit 1
+    }
+  # `all` (the tools and the node the tests run) and catkin's test targets.
+  nice cmake --build "$dir" -j"$jobs"
+  nice cmake --build "$dir" --target tests -j"$jobs"
+  build_time=$((SECONDS - start))
+
+  exclude="validation_"
+  ((quick)) && exclude+="|$long_tests|Runner\\.|Determinism\\."
+  ((rostest)) || exclude+="|$ros_master_tests"
+  # Any report ends the process with a failure; reports in child processes (the runner, the node
+  # under rostest) fail their test the same way.
+  export ASAN_OPTIONS="halt_on_error=1:detect_leaks=1:strict_string_checks=1:detect_stack_use_after_return=1"
+  export UBSAN_OPTIONS="halt_on_error=1:print_stacktrace=1"
+  export TSAN_OPTIONS="halt_on_error=1:exitcode=66:second_deadlock_stack=1:suppressions=$ROOT/scripts/tsan.supp"
+  start=$SECONDS
+  result=0
+  # shellcheck source=ros_env.sh
+  (export FLUID_SIM_BUILD_DIR="$dir" && source scripts/ros_env.sh && cd "$dir" &&
+    nice ctest --output-on-failure --no-tests=error -L 'core|io|ros' -E "$exclude" --timeout 1200) \
+    > "$dir/sanitize_ctest.log" 2>&1 || result=$?
+  test_time=$((SECONDS - start))
+  line="$(grep -E 'tests passed|tests failed' "$dir/sanitize_ctest.log" | tail -n 1 || true)"
+  reports="$(grep -cE 'ERROR: AddressSanitizer|ERROR: LeakSanitizer|runtime error:|WARNING: ThreadSanitizer' \
+    "$dir/sanitize_ctest.log" || true)"
+  summary[$flavour]="${line:-no ctest summary} | sanitizer reports: $reports | build ${build_time} s, tests ${test_time} s"
+  if ((result != 0 || reports > 0)); then
+    status=1
+    grep -E 'Failed|\*\*\*|SUMMARY: ' "$dir/sanitize_ctest.log" | head -n 20 | sed 's/^/[sanitize]   /'
+  fi
+  log "$flavour: ${summary[$flavour]} (log $dir/sanitize_ctest.log)"
+done
+
+for flavour in "${flavours[@]}"; do log "summary $flavour: ${summary[$flavour]}"; done
+((status == 0)) && log "clean" || log "FAILED"
+exit "$status"
