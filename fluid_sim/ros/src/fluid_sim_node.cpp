@@ -54,10 +54,12 @@ struct FluidSimNode::Impl
     // The other thread is told to stop too (the nodelet then stays loaded, idle).
     loop.onFailure([this](const std::string&) {
       publishers.requestStop();
+      master_watch.stop();
       if (on_finished) on_finished(1);
     });
     publishers.onFailure([this](const std::string&) {
       loop.requestStop();
+      master_watch.stop();
       if (on_finished) on_finished(1);
     });
   }
@@ -137,7 +139,12 @@ void FluidSimNode::stop()
 void FluidSimNode::onFinished(std::function<void(int)> callback)
 {
   impl_->on_finished = callback;
-  impl_->loop.onFinished(std::move(callback));
+  // The run is over: the master watch stops before the callback starts ROS's shutdown (which
+  // unregisters the node, something the watch must not take for a master restart).
+  impl_->loop.onFinished([this, callback = std::move(callback)](int code) {
+    impl_->master_watch.stop();
+    callback(code);
+  });
 }
 
 }  // namespace ros_bridge

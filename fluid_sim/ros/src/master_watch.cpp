@@ -1,9 +1,11 @@
 #include "fluid_sim/ros/master_watch.h"
 
 #include <chrono>
+#include <thread>
 
 #include <ros/connection_manager.h>
 #include <ros/console.h>
+#include <ros/init.h>
 #include <ros/master.h>
 #include <ros/network.h>
 #include <ros/service_manager.h>
@@ -25,8 +27,16 @@ bool callSelf(const std::string& method, const XmlRpc::XmlRpcValue& params, XmlR
   if (!ros::network::splitURI(ros::XMLRPCManager::instance()->getServerURI(), host, port)) return false;
   XmlRpc::XmlRpcClient* client = ros::XMLRPCManager::instance()->getXMLRPCClient(host, port, "/");
   XmlRpc::XmlRpcValue result;
-  const bool ok = client->execute(method.c_str(), params, result) &&
-                  ros::XMLRPCManager::instance()->validateXmlrpcResponse(method, result, payload);
+  // Not the blocking execute(): a server that is shutting down (ros::shutdown() stops it) may
+  // take the request and never answer. At most 2 s, and not past the start of a shutdown.
+  bool done = false;
+  if (client->executeNonBlock(method.c_str(), params))
+  {
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(2);
+    while (!(done = client->executeCheckDone(result)) && ros::ok() && std::chrono::steady_clock::now() < deadline)
+      std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
+  const bool ok = done && ros::XMLRPCManager::instance()->validateXmlrpcResponse(method, result, payload);
   ros::XMLRPCManager::instance()->releaseXMLRPCClient(client);
   return ok;
 }
@@ -101,6 +111,10 @@ void MasterWatch::run()
 
 bool MasterWatch::checkOnce()
 {
+  // While roscpp shuts down it unregisters everything from the master, which then does not know
+  // the node: that is no restart, and registering again then (through a slave API that is
+  // stopping) hung the node's exit.
+  if (!ros::ok() || ros::isShuttingDown()) return false;
   const std::string me = ros::this_node::getName();
   XmlRpc::XmlRpcValue params, result, payload;
   params[0] = me;
@@ -126,7 +140,7 @@ bool MasterWatch::checkOnce()
     return true;
   }
   master_reachable_ = true;
-  if (!registerAll()) return false;
+  if (!ros::ok() || ros::isShuttingDown() || !registerAll()) return false;
   int n;
   {
     std::lock_guard<std::mutex> lock(mutex_);
