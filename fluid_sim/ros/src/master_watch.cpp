@@ -27,15 +27,9 @@ bool callSelf(const std::string& method, const XmlRpc::XmlRpcValue& params, XmlR
   if (!ros::network::splitURI(ros::XMLRPCManager::instance()->getServerURI(), host, port)) return false;
   XmlRpc::XmlRpcClient* client = ros::XMLRPCManager::instance()->getXMLRPCClient(host, port, "/");
   XmlRpc::XmlRpcValue result;
-  // Not the blocking execute(): a server that is shutting down (ros::shutdown() stops it) may
-  // take the request and never answer. At most 2 s, and not past the start of a shutdown.
-  bool done = false;
-  if (client->executeNonBlock(method.c_str(), params))
-  {
-    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(2);
-    while (!(done = client->executeCheckDone(result)) && ros::ok() && std::chrono::steady_clock::now() < deadline)
-      std::this_thread::sleep_for(std::chrono::milliseconds(2));
-  }
+  // Blocking: a non-blocking call would need the client's socket on a dispatcher that runs, which
+  // roscpp keeps private. checkOnce() never calls this once ROS is shutting down.
+  const bool done = client->execute(method.c_str(), params, result);
   const bool ok = done && ros::XMLRPCManager::instance()->validateXmlrpcResponse(method, result, payload);
   ros::XMLRPCManager::instance()->releaseXMLRPCClient(client);
   return ok;
