@@ -242,6 +242,104 @@ TEST(MeshLoader, FaceIndicesOutOfRangeAreErrorsNotOutOfBoundsReads)
   EXPECT_NE(e.find("out of range"), std::string::npos) << e;
 }
 
+/// `text` with its first `from` replaced by `to` (the test fails if `from` is not there).
+std::string replaced(std::string text, const std::string& from, const std::string& to)
+{
+  const auto at = text.find(from);
+  EXPECT_NE(at, std::string::npos) << from;
+  return at == std::string::npos ? text : text.replace(at, from.size(), to);
+}
+
+const std::string kCubeP = "<p>0 2 3 0 3 1 4 5 7 4 7 6 0 1 5 0 5 4 2 6 7 2 7 3 0 4 6 0 6 2 1 3 7 1 7 5</p>";
+
+TEST(MeshLoader, ColladaCountsAndTokensAreCheckedBeforeAssimpReadsThem)
+{
+  // assimp 5.2 trusts them: a token in <p> that is not a whole number made it push zeros without
+  // end (18.9 GB, then std::bad_alloc), counts beyond the data are reserved up front
+  // (std::bad_alloc), an accessor past its array was read out of bounds (a segmentation fault for
+  // a huge stride), an array shorter than its count was read past its values.
+  test::TempDir dir;
+  const std::string cubes = test::readFile(kMeshes + "two_cubes_cm.dae");
+  const std::string count24 = "float_array id=\"cube-positions-array\" count=\"24\"";
+  const struct
+  {
+    std::string from, to, expected;
+  } cases[] = {
+      {"<p>0 2 3", "<p>0 2 x", "COLLADA <p> on line 21: 'x' is not an index"},
+      {"<p>0 2 3", "<p>0 2 3.5", "COLLADA <p> on line 21: '3.5' is not an index"},
+      {"<p>0 2 3", "<p>0 2 -3", "COLLADA <p> on line 21: '-3' is not an index"},
+      {"<triangles count=\"12\">", "<triangles count=\"2000000000\">",
+       "COLLADA <triangles> on line 19: count=\"2000000000\" with 1 index per vertex needs 6000000000 indices, its "
+       "<p> holds 36"},
+      {"<triangles count=\"12\">", "<triangles count=\"twelve\">",
+       "COLLADA <triangles> on line 19: count=\"twelve\" is not a whole number"},
+      {"offset=\"0\"/>", "offset=\"4000000000\"/>",
+       "COLLADA <triangles> on line 19: an <input> offset of 4000000000 is beyond its 36 indices"},
+      {count24, "float_array id=\"cube-positions-array\" count=\"2000000000\"",
+       "COLLADA <float_array> on line 11: count=\"2000000000\", but it holds 24 values"},
+      {count24, "float_array id=\"cube-positions-array\" count=\"20\"",
+       "COLLADA <float_array> on line 11: count=\"20\", but it holds 24 values"},
+      {"-5 -5 -5 5", "-5 -5 -5 five", "COLLADA <float_array> on line 11: 'five' is not a number"},
+      {"stride=\"3\"", "stride=\"2000000000\"",
+       "COLLADA <accessor> on line 13: count 8, stride 2000000000, offset 0 and 3 params read 14000000003 values of "
+       "'cube-positions-array', which holds 24"},
+      {"count=\"8\" stride=\"3\"", "count=\"9\" stride=\"3\"",
+       "COLLADA <accessor> on line 13: count 9, stride 3, offset 0 and 3 params read 27 values"},
+      {"</COLLADA>", "</collada>", "not well-formed XML (line"},
+  };
+  for (const auto& c : cases)
+  {
+    const std::string path = dir.write("bad.dae", replaced(cubes, c.from, c.to));
+    const std::string e = errorOf([&] { readMeshFile(path); });
+    EXPECT_NE(e.find(path + ": " + c.expected), std::string::npos) << c.to << "\n" << e;
+  }
+
+  // <polylist>: <vcount> must hold `count` values whose sum (the corners) matches <p>.
+  std::string vcount;
+  for (int k = 0; k < 12; ++k) vcount += "3 ";
+  const std::string polylist =
+      replaced(replaced(cubes, "<triangles count=\"12\">", "<polylist count=\"12\">"), "</triangles>", "</polylist>");
+  const std::string good_polylist = replaced(polylist, "<p>", "<vcount>" + vcount + "</vcount><p>");
+  EXPECT_EQ(readMeshFile(dir.write("polylist.dae", good_polylist)).mesh.triangles.size(), 24u);
+  const std::string short_vcount = dir.write("bad.dae", replaced(polylist, "<p>", "<vcount>3 3</vcount><p>"));
+  EXPECT_NE(errorOf([&] {
+              readMeshFile(short_vcount);
+            }).find(short_vcount + ": COLLADA <polylist> on line 19: count=\"12\", but its <vcount> holds 2 polygons"),
+            std::string::npos);
+  const std::string big_vcount = dir.write("bad.dae", replaced(good_polylist, "<vcount>3 ", "<vcount>2000000000 "));
+  EXPECT_NE(errorOf([&] {
+              readMeshFile(big_vcount);
+            }).find(big_vcount + ": COLLADA <polylist> on line 19: its <vcount> adds up to 2000000033 corners"),
+            std::string::npos);
+
+  // <polygons>: one <p> per polygon, `count` of them.
+  std::string ps;
+  for (int k = 0; k < 12; ++k) ps += "<p>" + kCubeP.substr(3 + 6 * k, 5) + "</p>";  // "a b c": one digit each
+  const std::string polygons = replaced(
+      replaced(replaced(cubes, "<triangles count=\"12\">", "<polygons count=\"12\">"), "</triangles>", "</polygons>"),
+      kCubeP, ps);
+  EXPECT_EQ(readMeshFile(dir.write("polygons.dae", polygons)).mesh.triangles.size(), 24u);
+  const std::string missing_p =
+      dir.write("bad.dae", replaced(polygons, "<polygons count=\"12\">", "<polygons count=\"13\">"));
+  EXPECT_NE(errorOf([&] {
+              readMeshFile(missing_p);
+            }).find(missing_p + ": COLLADA <polygons> on line 19: count=\"13\", but it has 12 <p> and <ph> elements"),
+            std::string::npos);
+
+  // A COLLADA document under another extension is checked too (assimp picks its importer by content).
+  const std::string xml = dir.write("bad.xml", replaced(cubes, "<p>0 2 3", "<p>0 2 x"));
+  EXPECT_NE(errorOf([&] { readMeshFile(xml); }).find("'x' is not an index"), std::string::npos);
+}
+
+TEST(MeshLoader, ColladaFuzzInputWithAMangledPIsRefusedQuickly)
+{
+  // fuzz_mesh_dae: <triangles count="24"> whose <p> holds 35 indices and a '#', and a mangled
+  // </source>; assimp pushed zeros for the '#' until 18.9 GB and std::bad_alloc (96 s).
+  const std::string path = FLUID_SIM_SOURCE_DIR "/test/fuzz/regressions/mesh_dae/dae_triangles_count_beyond_p.dae";
+  const std::string e = errorOf([&] { readMeshFile(path); });
+  EXPECT_NE(e.find(path + ": COLLADA <p> on line 21: '#' is not an index"), std::string::npos) << e;
+}
+
 TEST(MeshLoader, PrimitiveTessellationsAreWithinTheirError)
 {
   const TriangleMesh box = io::boxMesh(Vec3d(0.4, 0.3, 0.1));

@@ -525,3 +525,30 @@ TEST(Names, TwoBodiesOnOneTopicAreAnErrorNamingBoth)
     EXPECT_NE(what.find("wrench/a_b"), std::string::npos) << what;
   }
 }
+
+TEST(Reconfigure, EveryGroupsCopyOfAParameterIsSet)
+{
+  // The generated class's constructors leave each group's copy of a parameter uninitialised; a
+  // config made in storage full of 0x40 bytes shows whether toReconfigure() set them (a copy of
+  // the config loaded the bool 64 before: UBSan in the node's Services::advertise()).
+  alignas(fluid_sim::FluidSimConfig) unsigned char storage[sizeof(fluid_sim::FluidSimConfig)];
+  std::memset(storage, 0x40, sizeof storage);
+  SolverConfig solver;
+  solver.density_error = 0.002;
+  solver.warm_start = true;
+  ViscosityConfig viscosity;
+  viscosity.coefficient = 0.05;
+  auto* c = new (storage) fluid_sim::FluidSimConfig(ros_bridge::toReconfigure(solver, viscosity));
+  EXPECT_EQ(c->groups.solver.density_error, 0.002);
+  EXPECT_EQ(c->groups.solver.divergence_error, c->divergence_error);
+  EXPECT_EQ(c->groups.solver.min_iterations, c->min_iterations);
+  EXPECT_EQ(c->groups.solver.max_iterations, c->max_iterations);
+  EXPECT_EQ(static_cast<int>(c->groups.solver.warm_start), 1);
+  EXPECT_EQ(c->groups.viscosity.viscosity_coefficient, 0.05);
+  EXPECT_EQ(c->groups.viscosity.boundary_viscosity, c->boundary_viscosity);
+  EXPECT_EQ(c->groups.node.publish_rate, fluid_sim::FluidSimConfig::__getDefault__().publish_rate);
+  c->publish_rate = 7.0;
+  ros_bridge::fillReconfigureGroups(*c);
+  EXPECT_EQ(c->groups.node.publish_rate, 7.0);
+  c->~FluidSimConfig();
+}

@@ -154,7 +154,20 @@ fluid_sim::FluidSimConfig toReconfigure(const SolverConfig& solver, const Viscos
   c.viscosity_model = toString(viscosity.model);
   c.viscosity_coefficient = viscosity.coefficient;
   c.boundary_viscosity = viscosity.boundary;
+  const fluid_sim::FluidSimConfig& defaults = fluid_sim::FluidSimConfig::__getDefault__();
+  c.publish_rate = defaults.publish_rate;  // only the top-level values of the defaults are set
+  c.real_time_factor = defaults.real_time_factor;
+  c.max_points = defaults.max_points;
+  fillReconfigureGroups(c);
   return c;
+}
+
+void fillReconfigureGroups(fluid_sim::FluidSimConfig& c)
+{
+  // The generated __fromMessage__ sets each group's copy from the message's parameters.
+  dynamic_reconfigure::Config msg;
+  c.__toMessage__(msg);
+  c.__fromMessage__(msg);
 }
 
 void fromReconfigure(const fluid_sim::FluidSimConfig& config, SolverConfig& solver, ViscosityConfig& viscosity)

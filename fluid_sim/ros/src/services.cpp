@@ -24,6 +24,7 @@ void Services::advertise(ros::NodeHandle& nh, ros::NodeHandle& pnh, const NodeOp
   cfg.publish_rate = opt.publish_rate;
   cfg.real_time_factor = opt.real_time_factor;
   cfg.max_points = opt.max_points;
+  fillReconfigureGroups(cfg);
   current_ = cfg;
   reconfigure_->updateConfig(cfg);
   reconfigure_->setCallback([this](fluid_sim::FluidSimConfig& c, uint32_t) { onReconfigure(c); });

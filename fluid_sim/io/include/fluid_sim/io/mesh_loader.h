@@ -30,7 +30,8 @@ struct MeshFile
 /// the file's meshes and where STL repeats every corner per face, so that closedness can be decided;
 /// triangles that then repeat a vertex are dropped and counted as degenerate. Throws
 /// ConfigError(path, ...) for a missing or unreadable file, an unknown format, a file that does not
-/// parse, a file without triangles, or a NaN or infinite vertex.
+/// parse, a COLLADA file whose counts or numbers do not match its data (checkColladaText(), before
+/// assimp reads it), a file without triangles, or a NaN or infinite vertex.
 MeshFile readMeshFile(const std::string& path, const Vec3d& scale = Vec3d::Ones());
 
 /// Surface of a box with edge lengths `size` (m) centred at the origin: 8 vertices, 12 triangles,

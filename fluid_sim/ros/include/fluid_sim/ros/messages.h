@@ -73,7 +73,13 @@ fluid_msgs::SolverStats toSolverStats(const StepReport& report, const Simulation
 
 /// The dynamic_reconfigure solver and viscosity settings with the values of `solver` and
 /// `viscosity`; the node group (publish_rate, real_time_factor, max_points) is left to the caller.
+/// The node group starts at the .cfg defaults; call fillReconfigureGroups() after changing it.
 fluid_sim::FluidSimConfig toReconfigure(const SolverConfig& solver, const ViscosityConfig& viscosity);
+
+/// Copies every parameter of `c` into its group's copy (c.groups.solver.warm_start, ...), which the
+/// generated class's constructors leave uninitialised: copying such a config loaded an
+/// indeterminate bool (UBSan: "load of value 64, which is not a valid value for type 'bool'").
+void fillReconfigureGroups(fluid_sim::FluidSimConfig& c);
 
 /// Writes the solver and viscosity settings of `config` into `solver` and `viscosity`; their
 /// other fields are kept.
