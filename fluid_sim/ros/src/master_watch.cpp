@@ -1,7 +1,6 @@
 #include "fluid_sim/ros/master_watch.h"
 
 #include <chrono>
-#include <thread>
 
 #include <ros/connection_manager.h>
 #include <ros/console.h>
@@ -151,28 +150,30 @@ bool MasterWatch::registerAll()
 {
   const std::string me = ros::this_node::getName();
   const std::string api = ros::XMLRPCManager::instance()->getServerURI();
+  // The master's register* calls all take (caller_id, name, type or service URI, caller_api).
+  auto registerWithMaster = [&](const char* method, const std::string& name, const std::string& arg,
+                                XmlRpc::XmlRpcValue& payload) {
+    XmlRpc::XmlRpcValue params, result;
+    params[0] = me;
+    params[1] = name;
+    params[2] = arg;
+    params[3] = api;
+    return ros::master::execute(method, params, result, payload, false);
+  };
   bool ok = true;
   int published = 0, subscribed = 0, served = 0;
   for (const auto& [topic, type] : topicList("getPublications"))
   {
-    XmlRpc::XmlRpcValue params, result, payload;
-    params[0] = me;
-    params[1] = topic;
-    params[2] = type;
-    params[3] = api;
-    if (ros::master::execute("registerPublisher", params, result, payload, false))
+    XmlRpc::XmlRpcValue payload;
+    if (registerWithMaster("registerPublisher", topic, type, payload))
       ++published;
     else
       ok = false;
   }
   for (const auto& [topic, type] : topicList("getSubscriptions"))
   {
-    XmlRpc::XmlRpcValue params, result, payload;
-    params[0] = me;
-    params[1] = topic;
-    params[2] = type;
-    params[3] = api;
-    if (!ros::master::execute("registerSubscriber", params, result, payload, false))
+    XmlRpc::XmlRpcValue publishers;
+    if (!registerWithMaster("registerSubscriber", topic, type, publishers))
     {
       ok = false;
       continue;
@@ -183,7 +184,7 @@ bool MasterWatch::registerAll()
     XmlRpc::XmlRpcValue update, ignored;
     update[0] = std::string("/master");
     update[1] = topic;
-    update[2] = payload;
+    update[2] = publishers;
     callSelf("publisherUpdate", update, ignored);
   }
   const std::string service_api =
@@ -191,12 +192,8 @@ bool MasterWatch::registerAll()
   for (const std::string& service : services_ ? services_() : std::vector<std::string>{})
   {
     if (!ros::ServiceManager::instance()->lookupServicePublication(service)) continue;  // no longer served
-    XmlRpc::XmlRpcValue params, result, payload;
-    params[0] = me;
-    params[1] = service;
-    params[2] = service_api;
-    params[3] = api;
-    if (ros::master::execute("registerService", params, result, payload, false))
+    XmlRpc::XmlRpcValue payload;
+    if (registerWithMaster("registerService", service, service_api, payload))
       ++served;
     else
       ok = false;

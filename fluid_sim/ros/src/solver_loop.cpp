@@ -317,6 +317,7 @@ void SolverLoop::run()
     // time as in simulated time (it looks twice as fast to the water). Every factor starts from the
     // build's instant (see build()), so the first step finds the links where the water was placed.
     const bool paced = rtf > 0.0 && !stepping_on_request;
+    const double frame_rtf = paced ? rtf : 0.0;  // frames stamped on the paced time line, or now
     if (paced)
     {
       // Pace: the step from t to t + dt may run once ROS time has passed the instant of t + dt,
@@ -375,7 +376,7 @@ void SolverLoop::run()
                                                                            : "ok";
     sim_time_ = sim_->time();
     if (!stepping_on_request) step_lock.unlock();
-    afterStep(rep, paced ? rtf : 0.0);  // its frame goes out before a step service call returns
+    afterStep(rep, frame_rtf);  // its frame goes out before a step service call returns
     if (stepping_on_request)
     {
       --steps_requested_;
@@ -388,7 +389,7 @@ void SolverLoop::run()
     {
       ROS_ERROR("simulation unstable at t = %.4f s: %s. Paused; call ~reset to start again.", rep.time,
                 rep.reason.c_str());
-      publishFrame(rep, paced ? rtf : 0.0);
+      publishFrame(rep, frame_rtf);
       std::lock_guard<std::mutex> lock(cmd_mutex_);
       paused_ = true;
       steps_requested_ = 0;
@@ -403,7 +404,7 @@ void SolverLoop::run()
     }
     if (opt_.stop_after > 0.0 && !finished && sim_->time() >= opt_.stop_after - 1e-9)
     {
-      publishFrame(rep, paced ? rtf : 0.0);
+      publishFrame(rep, frame_rtf);
       finished = true;
       printSummary();
       if (on_finished_) on_finished_(0);
