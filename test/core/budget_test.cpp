@@ -13,20 +13,13 @@
 #include "fluid_sim/core/scene_config.h"
 #include "fluid_sim/core/simulation.h"
 
+#include "small_scene.h"
+
 namespace fluid_sim
 {
 namespace
 {
-SceneConfig smallScene()
-{
-  SceneConfig s;
-  s.spacing = 0.05;
-  s.domain = {Vec3d(-0.2, -0.2, -0.2), Vec3d(0.6, 0.6, 0.6)};
-  FluidBlockConfig f;
-  f.box = {Vec3d(0, 0, 0), Vec3d(0.2, 0.2, 0.2)};
-  s.fluid.push_back(f);
-  return s;
-}
+using test::smallScene;
 
 /// validate()'s error as "key: message", or "" if there is none.
 std::string errorOf(const SceneConfig& s)

@@ -8,20 +8,13 @@
 
 #include "fluid_sim/core/bodies.h"
 
+#include "small_scene.h"
+
 using namespace fluid_sim;
 
 namespace
 {
-SceneConfig smallScene()
-{
-  SceneConfig s;
-  s.spacing = 0.05;
-  s.domain = {Vec3d(-0.2, -0.2, -0.2), Vec3d(0.6, 0.6, 0.6)};
-  FluidBlockConfig f;
-  f.box = {Vec3d(0, 0, 0), Vec3d(0.2, 0.2, 0.2)};
-  s.fluid.push_back(f);
-  return s;
-}
+using fluid_sim::test::smallScene;
 
 std::string errorKey(const SceneConfig& s)
 {
