@@ -42,7 +42,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SCENES = os.path.join(ROOT, "config", "validation")
 MM_DATA = os.path.join(ROOT, "validation", "data", "martin_moyce_1952.csv")
 METHODS = ["mirroring", "sph", "mls"]
-COLORS = {"mirroring": "tab:red", "sph": "tab:blue", "mls": "tab:green"}
+COLORS = {"mirroring": "tab:red", "sph": "tab:blue", "mls": "tab:green", "mirroring_eq2": "tab:orange"}
 RHO0 = 1000.0
 # Checks whose failure is a documented known problem (docs/method_notes.md, docs/validation.md):
 # reported in the report, not counted by --check.
@@ -261,43 +261,55 @@ PAPER_TABLE1 = {0.25: (4.0, 4.0, 4.0), 0.5: (5.7, 5.7, 5.6), 1.0: (12.0, 12.2, 1
 
 
 # MLS diagnostics of cases 1 and 6: MLS with one of its own settings changed (label, --set keys).
+# The defaults since issue 11: fit radius 2 spacings, slopes damped (Eq. A20, tau 0.1), limited (A11).
 MLS_VARIANTS = [("unlimited (the paper)", {"solver.limit_boundary_pressure": "false"}),
-                ("fit radius 2 s", {"solver.mls_fit_radius": 2.0}),
-                ("eigen tolerance 0.1", {"solver.mls_eigen_tolerance": 0.1}),
+                ("fit radius 3 s, fallback 0.02 (before issue 11)",
+                 {"solver.mls_fit_radius": 3.0, "solver.mls_singular": "fallback", "solver.mls_eigen_tolerance": 0.02}),
+                ("fallback 0.1 (undamped)", {"solver.mls_singular": "fallback"}),
                 ("pseudo-inverse", {"solver.mls_singular": "pseudo_inverse"})]
+# The paper's mirroring (Eq. 2, p_b = p_i in both terms), run beside the three methods where the
+# paper compares against it (Table 1, the drum); `mirroring` is the single wall term (Eq. A19).
+PAPER_MIRRORING = "mirroring_eq2"
+# Case 1 (full): time steps around MLS's stability edge, run for every method beside the ladder,
+# so that no stability verdict there rests on one time step's rounding (issue 11).
+EDGE_DTS = [1.4, 1.75, 2.25, 2.5, 2.75]
 
 
 def case1(S):
     if S.quick:
         dts, spacing, duration = [0.5, 1.0, 2.0], 0.02, 0.3
+        edge = []
     else:
         dts, spacing, duration = [0.25, 0.5, 1.0, 1.5, 2.0, 3.0], 0.01, 0.6
-    specs = []
-    for m in METHODS:
-        for dt in dts:
-            specs.append(("case1/%s_dt%g" % (m, dt), "cylinder_dam_break.yaml",
-                          {"solver.boundary_pressure": m, "time_step.fixed": dt * 1e-3, "spacing": spacing}, duration))
-    runs = dict(zip([(m, dt) for m in METHODS for dt in dts], S.run_all(specs)))
+        edge = EDGE_DTS
+    all_dts = sorted(set(dts) | set(edge))
+    # (method, dt): the three methods at the ladder and the edge; the paper's mirroring (full suite
+    # only) at the ladder.
+    keys = [(m, dt) for m in METHODS for dt in all_dts] + ([] if S.quick else [(PAPER_MIRRORING, dt) for dt in dts])
+    specs = [("case1/%s_dt%g" % (m, dt), "cylinder_dam_break.yaml",
+              {"solver.boundary_pressure": m, "time_step.fixed": dt * 1e-3, "spacing": spacing}, duration)
+             for m, dt in keys]
+    runs = dict(zip(keys, S.run_all(specs)))
     rows = []
-    for m in METHODS:
-        for dt in dts:
-            r = runs[(m, dt)]
-            st = r.stats()
-            s = r.summary
-            cfl = float(np.max(st["max_speed"] * st["dt"]) / spacing) if st is not None and st.size else float("nan")
-            pmax = float(np.max(st["max_density_error"])) if st is not None and st.size else float("nan")
-            rows.append(dict(method=m, dt_ms=dt, status=r.status, t_end=s.get("simulated_time_s", 0.0),
-                             iters=s.get("mean_density_iterations", float("nan")),
-                             div_iters=s.get("mean_divergence_iterations", float("nan")),
-                             ms_step=float(np.median(st["wall_ms"])) if st is not None and st.size else float("nan"),
-                             err_mean=s.get("mean_density_error", float("nan")),
-                             err_max=s.get("max_density_error", float("nan")), err_particle_max=pmax, cfl=cfl,
-                             fluid=s.get("fluid_particles", {}).get("initial", 0),
-                             boundary=s.get("boundary_particles", 0)))
+    for m, dt in keys:
+        r = runs[(m, dt)]
+        st = r.stats()
+        s = r.summary
+        cfl = float(np.max(st["max_speed"] * st["dt"]) / spacing) if st is not None and st.size else float("nan")
+        pmax = float(np.max(st["max_density_error"])) if st is not None and st.size else float("nan")
+        rows.append(dict(method=m, dt_ms=dt, status=r.status, t_end=s.get("simulated_time_s", 0.0),
+                         iters=s.get("mean_density_iterations", float("nan")),
+                         div_iters=s.get("mean_divergence_iterations", float("nan")),
+                         ms_step=float(np.median(st["wall_ms"])) if st is not None and st.size else float("nan"),
+                         err_mean=s.get("mean_density_error", float("nan")),
+                         err_max=s.get("max_density_error", float("nan")), err_particle_max=pmax, cfl=cfl,
+                         fluid=s.get("fluid_particles", {}).get("initial", 0),
+                         boundary=s.get("boundary_particles", 0)))
     S.write_csv("case1_table1.csv", list(rows[0].keys()), [list(r.values()) for r in rows])
 
     fig, ax = plt.subplots(1, 2, figsize=(10, 4))
-    for m in METHODS:
+    plot_methods = METHODS + ([] if S.quick else [PAPER_MIRRORING])
+    for m in plot_methods:
         rr = [r for r in rows if r["method"] == m]
         ok = [r for r in rr if r["status"] == "ok"]
         ax[0].plot([r["dt_ms"] for r in ok], [r["iters"] for r in ok], "o-", color=COLORS[m], label=m + " (ours)")
@@ -305,7 +317,8 @@ def case1(S):
         bad = [r for r in rr if r["status"] != "ok"]
         ax[0].plot([r["dt_ms"] for r in bad], [r["iters"] for r in bad], "x", color=COLORS[m], ms=10)
     pd = sorted(PAPER_TABLE1)
-    for k, m in enumerate(METHODS):
+    # The paper's columns: its mirroring (Eq. 2), SPH, MLS.
+    for k, m in enumerate([PAPER_MIRRORING, "sph", "mls"]):
         ax[0].plot(pd, [PAPER_TABLE1[d][k] for d in pd], "s--", color=COLORS[m], alpha=0.45, label=m + " (paper)")
     ax[0].set_xlabel("time step (ms)")
     ax[0].set_ylabel("mean density iterations per step")
@@ -317,23 +330,37 @@ def case1(S):
     ax[1].legend(fontsize=8)
     S.savefig(fig, "case1_table1.png")
 
-    # checks: every method stable up to 1 ms, iterations grow with the time step (paper's trend)
-    for m in METHODS:
+    # checks: every method stable up to 1 ms, iterations grow with the time step (paper's trend,
+    # over the ladder: the edge steps are too close together for a trend); full suite: stable at
+    # every time step up to 3 ms, the edge included (issue 11's target for MLS).
+    for m in plot_methods:
         rr = [r for r in rows if r["method"] == m]
         small = [r for r in rr if r["dt_ms"] <= 1.0]
         S.check(1, "%s stable for dt <= 1 ms" % m, all(r["status"] == "ok" for r in small),
                 ", ".join("%g ms: %s" % (r["dt_ms"], r["status"]) for r in small))
-        ok = [r for r in rr if r["status"] == "ok"]
+        if edge and m in METHODS:
+            upto3 = [r for r in rr if r["dt_ms"] <= 3.0]
+            S.check(1, "%s stable at all %d dt up to 3 ms (ladder and edge %s ms)" % (
+                m, len(upto3), ", ".join("%g" % d for d in edge)), all(r["status"] == "ok" for r in upto3),
+                ", ".join("%g ms: %s" % (r["dt_ms"], "ok" if r["status"] == "ok" else "unstable at %.2f s" % r["t_end"])
+                          for r in upto3))
+        ok = [r for r in rr if r["status"] == "ok" and r["dt_ms"] in dts]
         grows = len(ok) >= 2 and ok[-1]["iters"] > ok[0]["iters"] and all(
             y["iters"] >= x["iters"] for x, y in zip(ok, ok[1:]))
         S.check(1, "%s iterations grow with dt (never fall, largest > smallest)" % m, grows,
                 ", ".join("%g ms: %.2f" % (r["dt_ms"], r["iters"]) for r in ok))
 
     table = []
-    for dt in dts:
+    def iters_txt(r):
+        if r is None:
+            return "-"
+        return ("%.2f" % r["iters"]) + ("" if r["status"] == "ok" else " (unstable at %.2f s)" % r["t_end"])
+
+    for dt in all_dts:
         rr = [next(r for r in rows if r["method"] == m and r["dt_ms"] == dt) for m in METHODS]
+        eq2 = next((r for r in rows if r["method"] == PAPER_MIRRORING and r["dt_ms"] == dt), None)
         paper = PAPER_TABLE1.get(dt)
-        table.append(["%g" % dt] + [("%.2f" % r["iters"]) + ("" if r["status"] == "ok" else " (unstable at %.2f s)" % r["t_end"]) for r in rr]
+        table.append(["%g" % dt] + [iters_txt(r) for r in rr] + ([] if S.quick else [iters_txt(eq2)])
                      + ["%.1f / %.1f / %.1f" % paper if paper else "-"]
                      + [" / ".join("%.1f" % r["ms_step"] for r in rr)]
                      + [" / ".join("%.3f" % (100 * r["err_mean"]) if r["status"] == "ok" else "(unstable)" for r in rr)]
@@ -370,14 +397,19 @@ def case1(S):
               "simulated per run; density tolerance 0.1 %%, divergence tolerance 0.1 %%, XSPH 0.01, at least 2 "
               "density iterations; identical settings for the three methods. ms per step: the median over the run's "
               "steps (robust to other load on the machine), %d thread per run, %d runs at a time. An unstable "
-              "run's iterations and errors are its means up to where it stopped.\n" % (spacing, n_f, n_b, duration, S.opts.threads, S.opts.jobs))
-    md.append(md_table(["dt (ms)", "iters mirroring", "iters sph", "iters mls", "paper (m / s / mls)",
+              "run's iterations and errors are its means up to where it stopped.%s\n" % (spacing, n_f, n_b, duration, S.opts.threads, S.opts.jobs,
+              "" if S.quick else " `mirroring` is the single wall term (Eq. A19); the paper's mirroring (Eq. 2, "
+              "`mirroring_eq2`) runs beside it at the ladder's time steps. The time steps %s ms lie around MLS's "
+              "stability edge of earlier runs: every method runs there too, so that no verdict rests on one time "
+              "step's rounding." % ", ".join("%g" % d for d in edge)))
+    md.append(md_table(["dt (ms)", "iters mirroring", "iters sph", "iters mls"]
+                       + ([] if S.quick else ["iters mirroring Eq. 2 (the paper's)"]) + ["paper (m / s / mls)",
                         "ms/step (m / s / mls)", "mean density err % (m / s / mls)",
                         "max of step mean err %", "max particle err %", "max CFL"], table))
     md.append("\n![Table 1](%s)\n" % S.rel("case1_table1.png"))
     if vrows:
-        md.append("Diagnostic: MLS with its own fit settings changed (default: fit radius 3 spacings, eigenvalue "
-                  "ratio 0.02, fallback to the weighted mean). Same scene, spacing and solver settings otherwise.\n")
+        md.append("Diagnostic: MLS with its own fit settings changed (default: fit radius 2 spacings, slopes damped "
+                  "by Eq. A20 with tau 0.1, limited by Eq. A11). Same scene, spacing and solver settings otherwise.\n")
         md.append(md_table(["MLS variant", "dt (ms)", "status", "iters", "ms/step", "mean density err %"],
                            [[v[0], "%g" % v[1], v[2] if v[2] == "ok" else "unstable at %.3f s" % v[3], f3(v[4]),
                              f3(v[5]), f3(100 * v[6]) if v[6] is not None else "-"] for v in vrows]))
@@ -1110,14 +1142,19 @@ def case6(S):
     refine = 0 if S.quick else 2
     scenes = stability_scenes(S)
     futs = {}
+    # The paper's claim is about the drum against its mirroring (Eq. 2): full suite only.
+    eq2_on = () if S.quick else ("drum",)
     for name, scene, sets, dur, vb, label in scenes:
-        for m in METHODS:
+        for m in METHODS + ([PAPER_MIRRORING] if name in eq2_on else []):
             futs[(name, m)] = S.pool.submit(ladder_search, S, name, scene, sets, dur, vb, m, ladder, refine)
     res = {k: f.result() for k, f in futs.items()}
     rows, logrows = [], []
     for name, scene, sets, dur, vb, label in scenes:
         row = [label]
-        for m in METHODS:
+        for m in METHODS + [PAPER_MIRRORING]:
+            if (name, m) not in res:
+                row.append("-")
+                continue
             st, un, below, log = res[(name, m)]
             txt = ("%s (unstable at %s)" % (f3(st), f3(un) if un else "none tried above")) if st is not None \
                 else "none stable (tried %g-%g)" % (ladder[0], ladder[-1])
@@ -1127,8 +1164,9 @@ def case6(S):
             for dt in sorted(log):
                 ok, why, it, tend = log[dt]
                 logrows.append([name, m, dt, "stable" if ok else "unstable", why, it, tend])
-        stm = {m: res[(name, m)][0] for m in METHODS}
-        row.append(f3(stm["mls"] / stm["mirroring"]) if stm["mls"] and stm["mirroring"] else "-")
+        stm = {m: res[(name, m)][0] for m in METHODS + [PAPER_MIRRORING] if (name, m) in res}
+        for ref in ("mirroring", PAPER_MIRRORING):
+            row.append(f3(stm["mls"] / stm[ref]) if stm["mls"] and stm.get(ref) else "-")
         rows.append(row)
     S.write_csv("case6_stability.csv", ["scene", "method", "dt_ms", "verdict", "reason", "density_iterations",
                                         "simulated_s"], logrows)
@@ -1137,6 +1175,13 @@ def case6(S):
             st = res[(name, m)][0]
             S.check(6, "%s %s: a stable fixed dt exists in %g-%g ms" % (name, m, ladder[0], ladder[-1]),
                     st is not None, "largest stable %s ms" % f3(st), known=KNOWN.get((6, name, m)))
+    if eq2_on:
+        # The paper (Sec. 5.2): MLS stays stable on the drum at twice the time step its mirroring
+        # allows. Judged on the refined largest stable time steps (each good to the bisection's factor).
+        mls_dt, eq2_dt = res[("drum", "mls")][0], res[("drum", PAPER_MIRRORING)][0]
+        S.check(6, "drum: mls's largest stable dt >= 2 x that of the paper's mirroring (Eq. 2)",
+                bool(mls_dt and eq2_dt and mls_dt >= 2.0 * eq2_dt),
+                "mls %s ms, mirroring Eq. 2 %s ms" % (f3(mls_dt), f3(eq2_dt)), known=KNOWN.get((6, "drum", "paper")))
     steps = refine
     lo, hi = ladder[0], ladder[-1]
     # Diagnostic (full suite only): MLS on the drum with its own fit settings changed.
@@ -1180,10 +1225,11 @@ def case6(S):
               "largest stable one is listed ('also unstable at'), not assumed away. The same solver settings for all three methods (density and divergence tolerance 0.1 %%, "
               "at most 100 iterations (deep column 200), XSPH 0.01).\n"
               % (", ".join("%g" % d for d in ladder), steps, 2.0 ** (1.0 / 2 ** steps)))
-    md.append(md_table(["case", "mirroring (ms)", "sph (ms)", "mls (ms)", "mls / mirroring"], rows))
+    md.append(md_table(["case", "mirroring (ms)", "sph (ms)", "mls (ms)", "mirroring Eq. 2, the paper's (ms)",
+                        "mls / mirroring", "mls / mirroring Eq. 2"], rows))
     if vrows:
-        md.append("\nDiagnostic: MLS on the drum with its own fit settings changed (default: fit radius 3 spacings, "
-                  "eigenvalue ratio 0.02, fallback to the weighted mean), same ladder, no refinement.\n")
+        md.append("\nDiagnostic: MLS on the drum with its own fit settings changed (default: fit radius 2 spacings, "
+                  "slopes damped by Eq. A20 with tau 0.1, limited by Eq. A11), same ladder, no refinement.\n")
         md.append(md_table(["MLS variant", "largest stable dt (ms)", "every trial"], vrows))
     md.append("\n![stability](%s)\n\nEvery trial run with its verdict and reason: [case6_stability.csv](%s).\n"
               % (S.rel("case6_stability.png"), S.rel("case6_stability.csv")))
