@@ -29,6 +29,7 @@ const std::set<std::string>& nodeKeys()
   static const std::set<std::string> keys = {
       "scene_file", "robot_description_param", "fixed_frame", "links", "container_links", "real_time_factor",
       "publish_rate", "max_points", "tf_delay", "tf_wait_timeout", "stop_after", "threads", "publish_boundary",
+      "wrench_window",
       // dynamic_reconfigure (cfg/FluidSim.cfg)
       "density_error", "divergence_error", "min_iterations", "max_iterations", "warm_start", "viscosity_model",
       "viscosity_coefficient", "boundary_viscosity", "groups"};
@@ -71,6 +72,7 @@ void checkNodeOptions(const NodeOptions& opt, const std::string& ns)
   range("tf_wait_timeout", opt.tf_wait_timeout, 0.0, ranges::kMaxTfWaitTimeout, "s (0 = wait for ever)");
   range("stop_after", opt.stop_after, 0.0, ranges::kMaxStopAfter, "s (0 = run until shut down)");
   range("threads", opt.threads, 0, ranges::kMaxThreads, "(0 = all cores)");
+  range("wrench_window", opt.wrench_window, 0.0, ranges::kMaxWrenchWindow, "s (0 = the steps since the last message)");
 }
 
 std::vector<std::string> checkReconfigure(fluid_sim::FluidSimConfig& requested,
@@ -283,6 +285,7 @@ NodeOptions readNodeOptions(const NodeParameters& params)
   r.read("stop_after", opt.stop_after);
   r.read("threads", opt.threads);
   r.read("publish_boundary", opt.publish_boundary);
+  r.read("wrench_window", opt.wrench_window);
   checkNodeOptions(opt, params.ns);
   return opt;
 }

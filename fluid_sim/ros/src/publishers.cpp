@@ -13,38 +13,87 @@ namespace ros_bridge
 // ------------------------------------------------------------------------------ WrenchMeans
 void WrenchMeans::reset(std::size_t bodies)
 {
-  force_sum_.assign(bodies, Vec3d::Zero());
-  torque_sum_.assign(bodies, Vec3d::Zero());
-  max_pressure_.assign(bodies, 0.0);
-  weight_time_ = 0.0;
+  bodies_ = bodies;
+  steps_.clear();
+  held_time_ = 0.0;
+  since_take_ = 0;
 }
 
 void WrenchMeans::add(const Simulation& sim, double dt)
 {
+  std::vector<Vec3d> force(sim.numBodies()), torque(sim.numBodies());
+  std::vector<double> max_pressure(sim.numBodies());
   for (std::size_t k = 0; k < sim.numBodies(); ++k)
   {
     const BodyInfo b = sim.body(k);
-    force_sum_[k] += dt * b.force_body;
-    torque_sum_[k] += dt * b.torque_body;
-    max_pressure_[k] = std::max(max_pressure_[k], b.max_pressure);
+    force[k] = b.force_body;
+    torque[k] = b.torque_body;
+    max_pressure[k] = b.max_pressure;
   }
-  weight_time_ += dt;
+  add(dt, force, torque, max_pressure);
+}
+
+void WrenchMeans::add(double dt, const std::vector<Vec3d>& force, const std::vector<Vec3d>& torque,
+                      const std::vector<double>& max_pressure)
+{
+  Step st;
+  st.dt = dt;
+  st.force.assign(bodies_, Vec3d::Zero());
+  st.torque.assign(bodies_, Vec3d::Zero());
+  st.max_pressure.assign(bodies_, 0.0);
+  for (std::size_t k = 0; k < bodies_; ++k)
+  {
+    if (k < force.size()) st.force[k] = force[k];
+    if (k < torque.size()) st.torque[k] = torque[k];
+    if (k < max_pressure.size()) st.max_pressure[k] = max_pressure[k];
+  }
+  steps_.push_back(std::move(st));
+  held_time_ += dt;
+  ++since_take_;
+  dropOld();
+}
+
+void WrenchMeans::dropOld()
+{
+  // A step is needed while the newer ones cover less than the window, or while it has not been
+  // in a message yet.
+  while (steps_.size() > since_take_ && held_time_ - steps_.front().dt >= window_)
+  {
+    held_time_ -= steps_.front().dt;
+    steps_.pop_front();
+  }
 }
 
 void WrenchMeans::take(const Simulation& sim, std::vector<fluid_msgs::ContactWrench>& out)
 {
   out.resize(sim.numBodies());
-  const double w = weight_time_ > 0.0 ? 1.0 / weight_time_ : 0.0;
+  // The span averaged: the window, or the steps since the last message if they cover more.
+  double since = 0.0;
+  for (std::size_t i = steps_.size() - since_take_; i < steps_.size(); ++i) since += steps_[i].dt;
+  const double span = std::max(window_, since);
+  std::vector<Vec3d> force(bodies_, Vec3d::Zero()), torque(bodies_, Vec3d::Zero());
+  std::vector<double> max_pressure(bodies_, 0.0);
+  double covered = 0.0;  // s
+  for (auto it = steps_.rbegin(); it != steps_.rend() && covered < span; ++it)
+  {
+    // The oldest step counts for the part of its dt inside the span.
+    const double w = std::min(it->dt, span - covered);
+    for (std::size_t k = 0; k < bodies_; ++k)
+    {
+      force[k] += w * it->force[k];
+      torque[k] += w * it->torque[k];
+      max_pressure[k] = std::max(max_pressure[k], it->max_pressure[k]);
+    }
+    covered += w;
+  }
   for (std::size_t k = 0; k < sim.numBodies(); ++k)
   {
     const BodyInfo b = sim.body(k);
-    out[k] = weight_time_ > 0.0 ? toContactWrench(b, w * force_sum_[k], w * torque_sum_[k], max_pressure_[k])
-                                : toContactWrench(b, b.force_body, b.torque_body, max_pressure_[k]);
-    force_sum_[k].setZero();
-    torque_sum_[k].setZero();
-    max_pressure_[k] = 0.0;
+    out[k] = covered > 0.0 && k < bodies_ ? toContactWrench(b, force[k] / covered, torque[k] / covered, max_pressure[k])
+                                          : toContactWrench(b, b.force_body, b.torque_body, b.max_pressure);
   }
-  weight_time_ = 0.0;
+  since_take_ = 0;
+  dropOld();
 }
 
 // ------------------------------------------------------------------------------ Publishers

@@ -83,6 +83,7 @@ void SolverLoop::build(const std::map<std::string, Pose>& poses)
     body_ranges_.emplace_back(b.first_particle, b.num_particles);
   }
   wrench_means_.reset(nb);
+  wrench_means_.setWindow(opt_.wrench_window);
   sim_time_ = sim_->time();  // build() runs before start() or under cmd_mutex_ (reset)
   boundary_dirty_ = true;
   reanchor_ = true;

@@ -33,6 +33,7 @@ struct NodeOptions
   double stop_after = 0.0;                   // s of simulated time, then finish; 0 = never
   int threads = 0;                           // solver threads; 0 = all cores
   bool publish_boundary = true;
+  double wrench_window = 0.1;  // s of simulated time each published wrench averages
 };
 
 /// The checked ranges of the node's numeric parameters (README "The ROS node"). Values outside
@@ -49,6 +50,7 @@ constexpr double kMaxTfDelay = 30.0;           // s
 constexpr double kMaxTfWaitTimeout = 86400.0;  // s
 constexpr double kMaxStopAfter = 1.0e6;        // s of simulated time
 constexpr int kMaxThreads = 1024;
+constexpr double kMaxWrenchWindow = 10.0;  // s of simulated time
 }  // namespace ranges
 
 /// Checks the ranges of `opt`; throws StartupError naming the parameter (under namespace `ns`)

@@ -6,6 +6,7 @@
 
 #include <atomic>
 #include <condition_variable>
+#include <deque>
 #include <functional>
 #include <memory>
 #include <mutex>
@@ -44,26 +45,62 @@ struct Frame
   fluid_msgs::SolverStats stats;
 };
 
-/// The wrenches published: per body, the time-weighted mean over the steps since the last
-/// frame (pressure forces jitter step to step), in the body frame.
+/// The wrenches published: per body, the mean over a window of simulated time (body frame). One
+/// step's pressure force jitters by about a third of its mean on a submerged body, so a message
+/// that averaged only the few steps since the last one (a node running fast, publishing often)
+/// was not a force a controller could use; the window (`~wrench_window`, s) makes each message
+/// the mean over the same span of simulated time at any real-time factor and publish rate. Each
+/// step's wrench acts over its dt: the mean is time-weighted, and the oldest step in the window
+/// counts for the part of its dt inside it (a boxcar filter in simulated time). A message never
+/// averages less than the steps since the previous one, so a window shorter than the frame
+/// interval (0 included) gives the mean since the last message.
 class WrenchMeans
 {
 public:
-  /// Forgets the sums; `bodies` bodies from now on.
+  /// Forgets every step; `bodies` bodies from now on.
   void reset(std::size_t bodies);
+
+  /// The window, s of simulated time (>= 0); takes effect at the next message.
+  void setWindow(double seconds)
+  {
+    window_ = seconds;
+  }
+  double window() const
+  {
+    return window_;
+  }
 
   /// Adds the wrenches of the step of length `dt` (s) just taken by `sim`.
   void add(const Simulation& sim, double dt);
+  /// The same with the step's wrenches given: per body, force (N) and torque (N m) in the body
+  /// frame and the largest boundary pressure (Pa); bodies beyond the vectors' sizes count as zero.
+  void add(double dt, const std::vector<Vec3d>& force, const std::vector<Vec3d>& torque,
+           const std::vector<double>& max_pressure);
 
-  /// The means as messages, one per body of `sim` (the last step's wrench if no step was
-  /// added); then starts new sums.
+  /// The means as messages, one per body of `sim` (the last step's wrench if no step was added
+  /// since the reset).
   void take(const Simulation& sim, std::vector<fluid_msgs::ContactWrench>& out);
 
+  /// Steps held (for tests: older steps than the window needs are dropped).
+  std::size_t heldSteps() const
+  {
+    return steps_.size();
+  }
+
 private:
-  std::vector<Vec3d> force_sum_;      // N s, body frame
-  std::vector<Vec3d> torque_sum_;     // N m s, body frame
-  std::vector<double> max_pressure_;  // Pa, largest over the steps
-  double weight_time_ = 0.0;          // s, the steps summed
+  struct Step
+  {
+    double dt = 0.0;                   // s
+    std::vector<Vec3d> force, torque;  // N, N m, body frame, per body
+    std::vector<double> max_pressure;  // Pa, per body
+  };
+  void dropOld();
+
+  double window_ = 0.0;  // s of simulated time
+  std::size_t bodies_ = 0;
+  std::deque<Step> steps_;      // oldest first
+  double held_time_ = 0.0;      // s, sum of steps_' dt
+  std::size_t since_take_ = 0;  // steps added since the last message (always kept)
 };
 
 class Publishers
