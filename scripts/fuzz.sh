@@ -32,6 +32,9 @@ harnesses=("$@")
 ((${#harnesses[@]} > 0)) || harnesses=("${all[@]}")
 
 log() { printf '[fuzz] %s\n' "$*"; }
+# Leaks inside libraries that are not ours (each with its reason in the file) do not stop a
+# harness; any other leak does.
+export LSAN_OPTIONS="suppressions=$ROOT/scripts/lsan.supp:print_suppressions=0"
 
 BUILD="$ROOT/build-fuzz"
 if [[ ! -f "$BUILD/CMakeCache.txt" ]]; then
