@@ -171,6 +171,12 @@ void printSummary(const fluid_sim::io::RunSummary& s, const fluid_sim::FillRepor
     std::printf(" (relaxed from %.3g %% in %d pseudo-steps, %.0f ms)", 100.0 * fill.initial_density_error,
                 fill.relax_steps, fill.ms_relax);
   std::printf("\n");
+  if (!fill.settled)
+    std::printf(
+        "warning  the fill's relaxation stopped at fill.relax_max_steps (%d pseudo-steps) before the water "
+        "was within fill.relax_tolerance of rest density: it starts unsettled and will move at t = 0; raise "
+        "fill.relax_max_steps\n",
+        fill.relax_steps);
   std::printf("steps    %zu, %.3f ms/step; simulated %.4g s in %.3g s (real-time factor %.3g)\n", s.steps,
               s.msPerStep(), s.simulated_time, s.wall_time, s.realTimeFactor());
   std::printf("solver   %.2f divergence, %.2f density iterations/step; density error mean %.3g %%, max %.3g %%\n",

@@ -111,6 +111,7 @@ TEST(StillFill, HalfFilledSphereStartsAtRest)
   EXPECT_GT(fill.trimmed, 0u);
   EXPECT_TRUE(fill.relaxed);
   EXPECT_LE(fill.final_density_error, scene.fill.relax_tolerance);
+  EXPECT_TRUE(fill.settled);
   const Motion still = run(sim, 100);  // 0.1 s
   EXPECT_LT(still.peak_mean_speed, 0.04);
   EXPECT_LT(still.mean_speed, 0.04);
@@ -294,4 +295,17 @@ TEST(StillFill, BadValuesNameTheirKey)
   {
     EXPECT_EQ(e.key(), "fill.relax_max_steps");
   }
+}
+
+TEST(StillFill, ARelaxationCutShortIsReportedUnsettled)
+{
+  // The half-filled sphere of HalfFilledSphereStartsAtRest needs about 140 pseudo-steps; three are
+  // not enough, and the report must say so rather than call the fill done.
+  SceneConfig scene = halfSphere(0.2, 0.025);
+  scene.fill.relax_max_steps = 3;
+  Simulation cut(scene);
+  EXPECT_TRUE(cut.fillReport().relaxed);
+  EXPECT_EQ(cut.fillReport().relax_steps, 3);
+  EXPECT_FALSE(cut.fillReport().settled);
+  EXPECT_GT(cut.fillReport().final_density_error, scene.fill.relax_tolerance);
 }

@@ -76,6 +76,10 @@ TEST(Runner, RunsTinySceneIntoDefaultOutputDirectory)
   EXPECT_GT(summary["boundary_particles"].get<int>(), 0);
   ASSERT_EQ(summary["bodies"].size(), 2u);
   EXPECT_EQ(summary["bodies"][0]["name"], "tank");
+  // A box tank on the lattice: nothing trimmed, nothing to relax, settled.
+  EXPECT_EQ(summary["fill"]["trimmed"], 0);
+  EXPECT_EQ(summary["fill"]["relaxed"], false);
+  EXPECT_EQ(summary["fill"]["settled"], true);
   // The tank carries the water: its mean force points down.
   EXPECT_LT(summary["bodies"][0]["mean_force"][2].get<double>(), 0.0);
 

@@ -112,7 +112,12 @@ void relaxFill(const SceneConfig& scene, const FluidConstants& constants, const 
     report.final_density_error = error;
     report.relax_steps = step;
     const bool held = step == 0 || !gravity || mean_step <= settled_step;
-    if ((error <= tolerance && held) || step == scene.fill.relax_max_steps) break;
+    if (error <= tolerance && held) break;
+    if (step == scene.fill.relax_max_steps)
+    {
+      report.settled = false;  // reported by the runner and the node, not hidden
+      break;
+    }
     report.relaxed = true;
 
     // Eq. A22: one pseudo-step of damped settling. Each lattice particle starts it with

@@ -120,6 +120,12 @@ std::string toJson(const RunSummary& s)
   j["mean_density_error"] = s.mean_density_error;
   j["max_density_error"] = s.max_density_error;
   j["bodies"] = bodies;
+  j["fill"] = {{"trimmed", s.fill.trimmed},
+               {"relaxed", s.fill.relaxed},
+               {"relax_steps", s.fill.relax_steps},
+               {"settled", s.fill.settled},
+               {"initial_density_error", s.fill.initial_density_error},
+               {"final_density_error", s.fill.final_density_error}};
   return j.dump(2) + "\n";
 }
 

@@ -40,6 +40,7 @@ RunSummary summarize(const Simulation& sim, const RunStatistics& stats)
   s.removed_at_start = sim.removedAtStart();
   s.removed_total = sim.removedTotal();
   s.boundary_particles = sim.boundaryPositions().size();
+  s.fill = sim.fillReport();
   stats.fill(s);
   return s;
 }

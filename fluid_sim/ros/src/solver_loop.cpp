@@ -74,6 +74,16 @@ void SolverLoop::build(const std::map<std::string, Pose>& poses)
   {
     throw StartupError(std::string("scene: ") + e.what());
   }
+  const FillReport& fill = sim_->fillReport();
+  if (fill.trimmed > 0 || fill.relaxed)
+    ROS_INFO("fill: %zu lattice points trimmed at walls; relaxed from %.3g %% to %.3g %% in %d pseudo-steps (%.0f ms)",
+             fill.trimmed, 100.0 * fill.initial_density_error, 100.0 * fill.final_density_error, fill.relax_steps,
+             fill.ms_relax);
+  if (!fill.settled)
+    ROS_WARN(
+        "fill: the relaxation stopped at fill.relax_max_steps = %d with the water %.3g %% from rest density "
+        "(fill.relax_tolerance %.3g %%): it starts unsettled and will move at t = 0; raise fill.relax_max_steps",
+        scene.fill.relax_max_steps, 100.0 * fill.final_density_error, 100.0 * scene.fill.relax_tolerance);
   links_.attach(*sim_, linkNames(), poses);
   const std::size_t nb = sim_->numBodies();
   body_ranges_.clear();

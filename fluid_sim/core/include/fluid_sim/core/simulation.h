@@ -73,8 +73,12 @@ struct FillReport
   // fill.relax off or without lattice particles, when it is not computed).
   double initial_density_error = 0.0;
   double final_density_error = 0.0;
-  bool relaxed = false;   // the initial error exceeded fill.relax_tolerance: the lattice was relaxed
-  int relax_steps = 0;    // pseudo-steps taken (Eq. A22)
+  bool relaxed = false;  // the initial error exceeded fill.relax_tolerance: the lattice was relaxed
+  int relax_steps = 0;   // pseudo-steps taken (Eq. A22)
+  // False when the relaxation stopped at fill.relax_max_steps before the lattice was within
+  // fill.relax_tolerance of rest density and held (Eq. A23): the water starts unsettled and will
+  // move at t = 0. True when settled or not needed (and with fill.relax off, when not checked).
+  bool settled = true;
   double ms_relax = 0.0;  // wall-clock time of the check and the relaxation, ms
 };
 

@@ -53,6 +53,7 @@ struct RunSummary
   double mean_density_error = 0.0;          // relative, mean over steps of StepReport::density_error
   double max_density_error = 0.0;           // relative, max over steps of StepReport::density_error
   std::vector<BodySummary> bodies;
+  FillReport fill;  // the fill before t = 0 (JSON: fill {trimmed, relaxed, relax_steps, settled, ...})
 
   /// Simulated time per wall time over the whole run (0 before any time has passed).
   double realTimeFactor() const;
