@@ -333,7 +333,11 @@ void checkColladaText(const std::string& path, const std::string& text)
     throw ConfigError(path,
                       "not well-formed XML (line " + std::to_string(doc.ErrorLineNum()) + ": " + doc.ErrorName() + ")");
   if (!doc.RootElement()) throw ConfigError(path, "no XML element");
-  Checker(path).run(*doc.RootElement());
+  // Every top-level element, not only the first: tinyxml2 accepts several, and assimp looks for
+  // <COLLADA> among them (a stray element before it hid a '#' in <p> from this check; assimp then
+  // asked for 2.4 GB).
+  Checker checker(path);
+  for (const tinyxml2::XMLElement* e = doc.FirstChildElement(); e; e = e->NextSiblingElement()) checker.run(*e);
 }
 
 }  // namespace io

@@ -18,6 +18,7 @@
 #include "fluid_sim/io/collada_check.h"
 #include "fluid_sim/io/file_util.h"
 #include "fluid_sim/io/mesh_topology.h"
+#include "fluid_sim/io/ply_reader.h"
 
 namespace fluid_sim
 {
@@ -181,6 +182,8 @@ MeshFile readMeshFile(const std::string& path, const Vec3d& scale)
   // assimp's COLLADA parser trusts the file's counts and tokens (collada_check.h): a bad one cost
   // 18.9 GB and 96 s before std::bad_alloc; checked first, such a file is refused in milliseconds.
   if (looksLikeCollada(path)) checkColladaText(path, readTextFile(path, "mesh file"));
+  // assimp's PLY reader loops without end on a header it cannot finish (ply_reader.h).
+  if (ext == ".ply") checkPlyMeshHeader(path, readTextFile(path, "mesh file"));
   // Meshes are used as written, z up (what rviz and Gazebo do); the COLLADA unit stays in the
   // root node's transform and is applied below.
   importer.SetPropertyBool(AI_CONFIG_IMPORT_COLLADA_IGNORE_UP_DIRECTION, true);

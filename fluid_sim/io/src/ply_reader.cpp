@@ -279,6 +279,73 @@ void readAscii(const std::string& data, const Header& h, const std::string& path
 
 }  // namespace
 
+void checkPlyMeshHeader(const std::string& path, const std::string& data)
+{
+  // Only the header: assimp reads the data and refuses what is wrong there with its own message.
+  std::size_t pos = 0, lines = 0;
+  bool have_format = false, have_element = false;
+  while (true)
+  {
+    const std::size_t eol = data.find('\n', pos);
+    if (eol == std::string::npos)
+      throw ConfigError(path, lines == 0 ? "empty file, not a PLY mesh"
+                                         : "the PLY header has no end_header line (a truncated or not a PLY file)");
+    std::string line = data.substr(pos, eol - pos);
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    pos = eol + 1;
+    ++lines;
+    const std::string at = "PLY header line " + std::to_string(lines) + ": ";
+    if (lines == 1)
+    {
+      if (line != "ply") throw ConfigError(path, "not a PLY file (the first line is not 'ply')");
+      continue;
+    }
+    const std::vector<std::string> w = splitWords(line);
+    if (w.empty()) throw ConfigError(path, at + "empty line");
+    const std::string& keyword = w[0];
+    if (keyword == "comment" || keyword == "obj_info") continue;
+    if (keyword == "format")
+    {
+      if (have_format || have_element) throw ConfigError(path, at + "a format line after the first line or element");
+      if (w.size() != 3 || w[2] != "1.0" ||
+          (w[1] != "ascii" && w[1] != "binary_little_endian" && w[1] != "binary_big_endian"))
+        throw ConfigError(
+            path, at + "expected 'format ascii|binary_little_endian|binary_big_endian 1.0', got '" + line + "'");
+      have_format = true;
+    }
+    else if (keyword == "element")
+    {
+      std::size_t count = 0;
+      if (w.size() != 3 || !parseCount(w[2], count))
+        throw ConfigError(path, at + "expected 'element <name> <count>' with a whole count, got '" + line + "'");
+      have_element = true;
+    }
+    else if (keyword == "property")
+    {
+      if (!have_element) throw ConfigError(path, at + "a property before any element");
+      const bool list = w.size() >= 2 && w[1] == "list";
+      if (list ? w.size() != 5 : w.size() != 3)
+        throw ConfigError(
+            path,
+            at + "expected 'property <type> <name>' or 'property list <count type> <type> <name>', got '" + line + "'");
+      if (list && (scalarSize(w[2]) == 0 || isFloating(w[2])))
+        throw ConfigError(path, at + "list count type '" + w[2] + "' is not an integer type");
+      if (scalarSize(w[list ? 3 : 1]) == 0) throw ConfigError(path, at + "unknown type '" + w[list ? 3 : 1] + "'");
+    }
+    else if (keyword == "end_header")
+    {
+      if (w.size() != 1) throw ConfigError(path, at + "expected 'end_header', got '" + line + "'");
+      break;
+    }
+    else
+    {
+      throw ConfigError(path, at + "unknown keyword '" + keyword + "'");
+    }
+  }
+  if (!have_format) throw ConfigError(path, "the PLY header has no format line");
+  if (!have_element) throw ConfigError(path, "the PLY header declares no element");
+}
+
 PlyFrame readPlyFrame(const std::string& path)
 {
   const std::string data = readTextFile(path, "PLY file");

@@ -29,5 +29,14 @@ struct PlyFrame
 /// velocity (naming the vertex).
 PlyFrame readPlyFrame(const std::string& path);
 
+/// Checks the header of a PLY mesh (the content `data` of the file at `path`) before assimp reads
+/// it: assimp 5.2 loops without end on a header it cannot finish (fuzz_mesh_ply: a header whose
+/// end_header is misspelt ran for minutes, seeking in the file). Requires 'ply' on the first line,
+/// one `format ascii|binary_little_endian|binary_big_endian 1.0`, `element <name> <count>` lines,
+/// `property <type> <name>` or `property list <count type> <type> <name>` lines with PLY types,
+/// comment and obj_info lines, and an `end_header` line; throws ConfigError(path, message naming
+/// the header line) otherwise. The data after the header is left to assimp.
+void checkPlyMeshHeader(const std::string& path, const std::string& data);
+
 }  // namespace io
 }  // namespace fluid_sim
