@@ -9,8 +9,11 @@
 #   bash scripts/sanitize.sh [--asan | --tsan] [--quick] [--no-rostest]
 #
 #   --asan, --tsan  one flavour only (default: both)
-#   --quick         skip the long tests (cube buoyancy, 3 s at rest, the runner's whole scenes,
-#                   the headless demo)
+#   --quick         skip the long tests (the physical checks that run a scene for seconds: cube
+#                   buoyancy, 3 s at rest, the dam breaks of WarmStart and Stability, the STL
+#                   sphere's buoyancy, determinism at 195 k particles, the runner's whole scenes,
+#                   the headless demo and the 2-minute soak); they run the same solver code as the
+#                   short tests, 10-30 times slower under a sanitizer
 #   --no-rostest    skip the tests that start a ROS master (rostests, the demo)
 #
 # ThreadSanitizer needs every library whose threads touch our data instrumented; the core's
@@ -49,7 +52,7 @@ export PYENV_VERSION=system
 
 # Tests left out by --quick (minutes under a sanitizer): the two long physical checks (as
 # scripts/test.sh leaves them out of the double build), the runner's whole-scene tests and the demo.
-long_tests='Buoyancy|Rest\.|ros_demo_headless'
+long_tests='Buoyancy|Rest\.|WarmStart|Stability\.|StlSphereFeels|ros_demo_headless|ros_soak_short'
 # Tests that start a ROS master.
 ros_master_tests='rostest|ros_demo_headless'
 
