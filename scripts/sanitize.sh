@@ -40,7 +40,7 @@ for arg in "$@"; do
     --quick) quick=1 ;;
     --no-rostest) rostest=0 ;;
     *)
-      sed -n '2,14p' "$0"
+      sed -n '2,17p' "$0"
       exit 2
       ;;
   esac
