@@ -122,6 +122,9 @@ for flavour in "${flavours[@]}"; do
   # nodelet.test loads the node into ROS's own nodelet manager, an uninstrumented program: the
   # sanitizer's runtime has to be loaded before the instrumented plugin, so the manager starts with
   # it preloaded (the test passes FLUID_SIM_LAUNCH_PREFIX to roslaunch as its launch-prefix).
+  # The instrumented node runs 10-30 times slower: the rostests' waits for it and their time limits
+  # grow accordingly (limits on waiting for a condition, never the condition itself).
+  export FLUID_SIM_TEST_TIME_SCALE=10 FLUID_SIM_ROSTEST_TIME_LIMIT=1200
   runtime="$([[ $flavour == tsan ]] && echo libtsan.so || echo libasan.so)"
   export FLUID_SIM_LAUNCH_PREFIX="env LD_PRELOAD=$(readlink -f "$(gcc -print-file-name="$runtime")")"
   start=$SECONDS

@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <fstream>
 #include <mutex>
 #include <sstream>
@@ -37,10 +38,20 @@ extern char** environ;
 
 namespace
 {
+/// Every wait of these tests for the node, in seconds, is multiplied by FLUID_SIM_TEST_TIME_SCALE
+/// (default 1): scripts/sanitize.sh sets it, as a node under a sanitizer runs 10-30 times slower.
+/// The waits are limits on waiting for a condition, never the condition itself.
+double waitSeconds(double seconds)
+{
+  const char* scale = std::getenv("FLUID_SIM_TEST_TIME_SCALE");
+  const double k = scale ? std::atof(scale) : 1.0;
+  return seconds * (k >= 1.0 ? k : 1.0);
+}
+
 template <typename M>
 typename M::ConstPtr waitFor(const std::string& topic, double seconds)
 {
-  return ros::topic::waitForMessage<M>(topic, ros::Duration(seconds));
+  return ros::topic::waitForMessage<M>(topic, ros::Duration(waitSeconds(seconds)));
 }
 
 /// The lattice count of fluid block k in the node's scene parameters.
@@ -202,7 +213,7 @@ TEST(Tank, FloorWrenchEqualsTheWaterWeight)
                                                             ++count;
                                                             t_last = latest_time;
                                                           });
-  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(90.0);
+  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(waitSeconds(90.0));
   while (ros::WallTime::now() < deadline)
   {
     {
@@ -318,7 +329,7 @@ TEST(Tank, PauseStepAndResetDoWhatTheySay)
     ASSERT_TRUE(stats);
     EXPECT_FALSE(stats->paused);
   }
-  while (stats->sim_time <= 0.05 && (ros::WallTime::now() - start).toSec() < 60.0);
+  while (stats->sim_time <= 0.05 && (ros::WallTime::now() - start).toSec() < waitSeconds(60.0));
   EXPECT_GT(stats->sim_time, 0.05);
   EXPECT_EQ(int(stats->fluid_particles), latticeCount("/fluid_sim/fluid_sim"));
 }
@@ -383,7 +394,7 @@ TEST(Pusher, MovingALinkThroughTfMovesItsParticlesAndItsWrench)
   const double tick = 0.005, max_lead = 0.3, t_start = 1000.0;
   double now = t_start;
   const ros::WallTime wall_start = ros::WallTime::now();
-  auto wallLeft = [&]() { return (ros::WallTime::now() - wall_start).toSec() < 200.0; };
+  auto wallLeft = [&]() { return (ros::WallTime::now() - wall_start).toSec() < waitSeconds(200.0); };
   auto advance = [&](double z) {
     now += tick;
     tf.sendTransform(transform("pusher", 0.2, 0.1, z, ros::Time(now)));
@@ -529,7 +540,7 @@ TEST(SimTime, SimulatedTimeFollowsClockNotWallTime)
   // Advances /clock in 1 ms ticks (2 ms of wall time apart) until `done` holds (under m).
   auto advanceUntil = [&](auto done, double wall_limit) {
     const ros::WallTime start = ros::WallTime::now();
-    while ((ros::WallTime::now() - start).toSec() < wall_limit)
+    while ((ros::WallTime::now() - start).toSec() < waitSeconds(wall_limit))
     {
       {
         std::lock_guard<std::mutex> lock(m);
@@ -572,7 +583,7 @@ TEST(SimTime, SimulatedTimeFollowsClockNotWallTime)
   advanceUntil([&] { return clock_now >= target; }, 100.0);
   bool caught_up = false;
   const ros::WallTime wait_start = ros::WallTime::now();
-  while (!caught_up && (ros::WallTime::now() - wait_start).toSec() < 100.0)
+  while (!caught_up && (ros::WallTime::now() - wait_start).toSec() < waitSeconds(100.0))
   {
     publishClock(target);
     ros::WallDuration(0.02).sleep();
@@ -682,7 +693,7 @@ std::string readAll(const std::string& path)
 /// Runs the node to its end (at most `seconds`); returns its exit code (-1 if it had to be killed).
 int runToEnd(Process& p, double seconds)
 {
-  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(seconds);
+  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(waitSeconds(seconds));
   int status = 0;
   while (ros::WallTime::now() < deadline)
   {
@@ -755,7 +766,7 @@ TEST(Errors, TinyRealTimeFactorFromReconfigureIsRefusedNotACrash)
   // It runs on at real-time factor 1: wait for a later simulated time (not a fixed wall time).
   bool advanced = false;
   const ros::WallTime start = ros::WallTime::now();
-  while (!advanced && (ros::WallTime::now() - start).toSec() < 60.0)
+  while (!advanced && (ros::WallTime::now() - start).toSec() < waitSeconds(60.0))
   {
     int status = 0;
     ASSERT_EQ(waitpid(p.pid, &status, WNOHANG), 0) << "the node died:\n" << readAll(p.log);
@@ -795,7 +806,8 @@ TEST(Errors, LateTfIsWaitedForNotACrash)
   // waiting; however long it takes this machine to get there, it must stay alive meanwhile).
   int status = 0;
   const ros::WallTime start = ros::WallTime::now();
-  while (readAll(p.log).find("waiting for tf") == std::string::npos && (ros::WallTime::now() - start).toSec() < 100.0)
+  while (readAll(p.log).find("waiting for tf") == std::string::npos &&
+         (ros::WallTime::now() - start).toSec() < waitSeconds(100.0))
   {
     ASSERT_EQ(waitpid(p.pid, &status, WNOHANG), 0) << "the node exited while waiting for tf:\n" << readAll(p.log);
     ros::WallDuration(0.05).sleep();
