@@ -120,6 +120,12 @@ std::string toJson(const RunSummary& s)
   j["mean_density_error"] = s.mean_density_error;
   j["max_density_error"] = s.max_density_error;
   j["bodies"] = bodies;
+  if (s.spill)
+    j["spill"] = {{"below_m", s.spill->below},
+                  {"particles", s.spill->particles},
+                  {"volume_m3", s.spill->volume},
+                  {"max_particles", s.spill->max_particles},
+                  {"max_volume_m3", s.spill->max_volume}};
   return j.dump(2) + "\n";
 }
 
