@@ -83,6 +83,8 @@ void SolverLoop::build(const std::map<std::string, Pose>& poses)
     body_ranges_.emplace_back(b.first_particle, b.num_particles);
   }
   wrench_means_.reset(nb);
+  measurements_ = std::make_unique<Measurements>(sim_->scene());
+  if (measurements_->empty()) measurements_.reset();
   sim_time_ = sim_->time();  // build() runs before start() or under cmd_mutex_ (reset)
   boundary_dirty_ = true;
   reanchor_ = true;
@@ -549,6 +551,21 @@ void SolverLoop::publishFrame(const StepReport& rep, double paced_rtf)
   f.wrenches.header.stamp = f.stamp;
   f.wrenches.header.frame_id = opt_.fixed_frame;
   wrench_means_.take(*sim_, f.wrenches.wrenches);
+  f.regions.clear();
+  f.probes.probes.clear();
+  if (measurements_)
+  {
+    const MeasurementReport m = measurements_->evaluate(*sim_);
+    for (const RegionMeasurement& r : m.regions)
+    {
+      f.regions.push_back(toRegionState(r));
+      f.regions.back().header.stamp = f.stamp;
+      f.regions.back().header.frame_id = opt_.fixed_frame;
+    }
+    f.probes.header.stamp = f.stamp;
+    f.probes.header.frame_id = opt_.fixed_frame;
+    for (const ProbeMeasurement& p : m.probes) f.probes.probes.push_back(toProbe(p));
+  }
   f.stats = toSolverStats(rep, *sim_, rtf_measured_, paused_, last_status_);
   f.stats.header.stamp = f.stamp;
   f.stats.header.frame_id = opt_.fixed_frame;
