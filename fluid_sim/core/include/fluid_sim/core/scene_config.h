@@ -247,7 +247,7 @@ struct OutputConfig
   double frame_interval = 0.01;  // s between PLY frames; 0 = none   key: output.frame_interval
 };
 
-/// Instruments (docs: README, Measurements). They read the fluid after a step and never act on
+/// Instruments (README, Instruments). They read the fluid after a step and never act on
 /// it: a scene without them runs exactly as before.
 enum class RegionShape
 {
