@@ -201,11 +201,13 @@ int run(const Options& options)
   using namespace fluid_sim;
 
   std::unique_ptr<Simulation> sim;
+  std::unique_ptr<Measurements> instruments;  // the scene's regions, probes and spill
   try
   {
     const SceneConfig scene = io::loadScene(options.scene, options.overrides);
     for (const std::string& warning : scene.warnings) std::cerr << "warning: " << warning << '\n';
     sim = std::make_unique<Simulation>(scene);
+    instruments = std::make_unique<Measurements>(*sim);  // a region's body must be one of sim's
   }
   catch (const io::SceneError& e)
   {
@@ -246,9 +248,9 @@ int run(const Options& options)
   // Instruments (regions, probes, spill): measured at the frame times (frame k after the step
   // that ends nearest to k * frame_interval), and after the last step; without frames
   // (frame_interval 0) at the start and after the last step. A scene without them measures nothing.
-  Measurements instruments(scene);
   std::unique_ptr<io::MeasurementCsvWriter> instrument_csv;
-  if (!instruments.empty()) instrument_csv = std::make_unique<io::MeasurementCsvWriter>(out_dir.string(), instruments);
+  if (!instruments->empty())
+    instrument_csv = std::make_unique<io::MeasurementCsvWriter>(out_dir.string(), *instruments);
   std::size_t measure_slot = 0;  // the next measurement is due at measure_slot * frame_interval
   double last_measured = -1.0;   // s, simulated time of the last measurement
   std::size_t measurements = 0;
@@ -259,7 +261,7 @@ int run(const Options& options)
     if (!instrument_csv || t == last_measured) return;
     if (!force && (frame_interval <= 0.0 || t + 0.5 * dt < measure_slot * frame_interval)) return;
     const auto measure_start = Clock::now();
-    const MeasurementReport m = instruments.evaluate(*sim);
+    const MeasurementReport m = instruments->evaluate(*sim);
     measure_ms += 1000.0 * secondsSince(measure_start);
     ++measurements;
     instrument_csv->write(m);

@@ -8,6 +8,7 @@
 #include <cstdio>
 
 #include "fluid_sim/core/measurements.h"
+#include "fluid_sim/core/mesh_inside_index.h"
 #include "fluid_sim/core/simulation.h"
 #include "small_scene.h"
 
@@ -74,7 +75,7 @@ std::string errorKey(const SceneConfig& s)
 TEST(Measurements, NoInstrumentsIsEmpty)
 {
   Simulation sim(test::smallScene());
-  Measurements m(sim.scene());
+  Measurements m(sim);
   EXPECT_TRUE(m.empty());
   const MeasurementReport r = m.evaluate(sim);
   EXPECT_TRUE(r.regions.empty());
@@ -98,7 +99,7 @@ TEST(Measurements, BoxRegionReadsTheFilledVolume)
   s.regions.push_back(sphere);
   Simulation sim(s);
   ASSERT_EQ(sim.numFluidParticles(), 2000u);
-  Measurements m(sim.scene());
+  Measurements m(sim);
   const MeasurementReport r = m.evaluate(sim);
   ASSERT_EQ(r.regions.size(), 4u);
 
@@ -129,7 +130,7 @@ TEST(Measurements, RegionMeanVelocityAndSpill)
   s.spill.enabled = true;
   s.spill.below = 0.0;
   Simulation sim(s);
-  Measurements m(sim.scene());
+  Measurements m(sim);
   const std::size_t n = sim.numFluidParticles();
   MeasurementReport r = m.evaluate(sim);
   EXPECT_EQ(r.regions[0].particles, n);
@@ -149,7 +150,7 @@ TEST(Measurements, RegionMeanVelocityAndSpill)
   // Nothing is spilt below a height no particle reaches.
   s.spill.below = -1.0;
   Simulation sim2(s);
-  Measurements m2(sim2.scene());
+  Measurements m2(sim2);
   while (sim2.time() < 0.12) ASSERT_FALSE(sim2.step().unstable);
   EXPECT_EQ(m2.evaluate(sim2).spill.particles, 0u);
 }
@@ -165,7 +166,7 @@ TEST(Measurements, ProbeReadsHydrostaticPressureAndAirIsDry)
   s.probes.push_back(probe("air", Vec3d(0.1, 0.1, 0.5)));
   s.probes.push_back(probe("dry_wall", Vec3d(0.0, 0.1, 0.55)));
   Simulation sim(s);
-  Measurements m(sim.scene());
+  Measurements m(sim);
   const double area = 0.2 * 0.2;  // m^2
   std::vector<double> mean(depths.size(), 0.0), exact(depths.size(), 0.0);
   std::vector<double> density(depths.size(), 0.0);
@@ -208,6 +209,94 @@ TEST(Measurements, ProbeReadsHydrostaticPressureAndAirIsDry)
     EXPECT_NEAR(mean[k] / exact[k], 1.0, 0.02) << "depth " << depths[k] << " m";
     // Inside the water the SPH sum is rest density within the solver's compression.
     EXPECT_NEAR(density[k] / 1000.0, 1.0, 0.01) << "depth " << depths[k] << " m";
+  }
+}
+
+/// A unit cube's surface (outward triangles), without its top face (z = 1) when `open`.
+TriangleMesh cubeMesh(bool open)
+{
+  TriangleMesh m;
+  for (int k = 0; k < 8; ++k) m.vertices.emplace_back(k & 1, (k >> 1) & 1, (k >> 2) & 1);
+  m.triangles = {{0, 2, 1}, {1, 2, 3}, {0, 1, 5}, {0, 5, 4}, {1, 3, 7},
+                 {1, 7, 5}, {3, 2, 6}, {3, 6, 7}, {2, 0, 4}, {2, 4, 6}};
+  if (!open) m.triangles.insert(m.triangles.end(), {{4, 5, 7}, {4, 7, 6}});
+  return m;
+}
+
+TEST(Measurements, OpeningsAreClosedOverTheRim)
+{
+  EXPECT_NEAR(enclosedVolume(cubeMesh(false)), 1.0, 1e-12);
+  const TriangleMesh closed = closeOpenings(cubeMesh(true));  // a box-shaped cup, open at z = 1
+  EXPECT_EQ(closed.vertices.size(), 9u);                      // the rim's centroid
+  EXPECT_EQ(closed.triangles.size(), 14u);                    // four fan triangles
+  EXPECT_NEAR(enclosedVolume(closed), 1.0, 1e-12);
+  EXPECT_GT(windingNumber(closed, Vec3d(0.5, 0.5, 0.9)), 0);
+  EXPECT_EQ(windingNumber(closed, Vec3d(0.5, 0.5, 1.1)), 0);
+  // Inward triangles come back outward; a closed mesh keeps its triangles.
+  TriangleMesh inward = cubeMesh(true);
+  for (auto& t : inward.triangles) std::swap(t[1], t[2]);
+  EXPECT_NEAR(enclosedVolume(closeOpenings(inward)), 1.0, 1e-12);
+  EXPECT_EQ(closeOpenings(cubeMesh(false)).triangles.size(), 12u);
+}
+
+TEST(Measurements, BodyRegionFollowsItsBody)
+{
+  // The column's tank (a box container 0.2 x 0.2 x 0.6 m) and an open box-shaped cup mesh
+  // 0.1 m wide and high standing in the water, turned 90 degrees about x: its opening faces -y,
+  // so its inside (closed over the rim) is the box [0.055, 0.155]^3, whose faces lie between
+  // the lattice's planes (0.01 + 0.02 k).
+  SceneConfig s = column();
+  BoundaryConfig cup;
+  cup.name = "cup";
+  cup.type = ShapeType::Mesh;
+  cup.mesh = cubeMesh(true);
+  for (auto& v : cup.mesh.vertices) v *= 0.1;
+  cup.mesh_closed = false;
+  cup.mesh_offset = SurfaceOffset::None;
+  // Turned about x, the cup's (x, y, z) goes to (x, -z, y): it spans y in [-0.1, 0] before the shift.
+  cup.pose = Pose::fromXyzRpy(Vec3d(0.055, 0.155, 0.055), Vec3d(M_PI / 2, 0, 0));
+  s.boundaries.push_back(cup);
+  RegionConfig tank, inside_cup;
+  tank.name = "tank_inside";
+  tank.shape = RegionShape::Body;
+  tank.body = "tank";
+  inside_cup.name = "cup_inside";
+  inside_cup.shape = RegionShape::Body;
+  inside_cup.body = "cup";
+  s.regions = {tank, inside_cup, boxRegion("same_box", Vec3d(0.055, 0.055, 0.055), Vec3d(0.155, 0.155, 0.155))};
+  s.fill.trim = false;  // keep the lattice points along the cup's walls
+  s.fill.relax = false;
+  Simulation sim(s);
+  Measurements m(sim);
+  const MeasurementReport r = m.evaluate(sim);
+  EXPECT_NEAR(r.regions[0].capacity, 0.2 * 0.2 * 0.6, 1e-12);
+  EXPECT_EQ(r.regions[0].particles, sim.numFluidParticles());
+  EXPECT_NEAR(r.regions[1].capacity, 0.001, 1e-12);
+  // The lattice points 0.07 ... 0.13 on each axis (the fill drops those at 0.15, half a spacing
+  // from the cup's wall): the particles of the box region of the same place.
+  EXPECT_EQ(r.regions[1].particles, 4u * 4u * 4u);
+  EXPECT_EQ(r.regions[1].particles, r.regions[2].particles);
+  EXPECT_NEAR(r.regions[1].fill_fraction, 64 * 0.02 * 0.02 * 0.02 / 0.001, 1e-9);
+}
+
+TEST(Measurements, BodyRegionNamesAMissingBody)
+{
+  SceneConfig s = column();
+  RegionConfig r;
+  r.name = "cup";
+  r.shape = RegionShape::Body;
+  r.body = "mug";
+  s.regions.push_back(r);
+  Simulation sim(s);
+  try
+  {
+    Measurements m(sim);
+    ADD_FAILURE() << "no error";
+  }
+  catch (const ConfigError& e)
+  {
+    EXPECT_EQ(e.key(), "regions[0].body");
+    EXPECT_NE(std::string(e.what()).find("no boundary body named 'mug' (bodies: tank)"), std::string::npos) << e.what();
   }
 }
 

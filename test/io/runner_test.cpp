@@ -277,5 +277,16 @@ TEST(Runner, InstrumentsSpillOutsideRegionsAndNoFilesWithoutThem)
   EXPECT_FALSE(readJson(dir.file("plain/summary.json")).contains("spill"));
 }
 
+TEST(Runner, RegionOfAnUnknownBodyExitsTwoNamingIt)
+{
+  test::TempDir dir;
+  dir.write("tiny.yaml", std::string(kTinyScene) + "regions: [{name: cup, body: mug}]\n");
+  const RunResult r = run(dir, "tiny.yaml --out result");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("error: tiny.yaml: regions[0].body: no boundary body named 'mug' (bodies: tank, ball)"),
+            std::string::npos)
+      << r.err;
+}
+
 }  // namespace
 }  // namespace fluid_sim

@@ -5,8 +5,14 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <unordered_map>
+#include <unordered_set>
+#include <utility>
 
+#include "fluid_sim/core/boundary_sampling.h"
 #include "fluid_sim/core/kernel.h"
+#include "fluid_sim/core/mesh_inside_index.h"
 #include "fluid_sim/core/neighbor_search.h"
 #include "fluid_sim/core/parallel.h"
 #include "fluid_sim/core/simulation.h"
@@ -19,34 +25,70 @@ namespace
 /// instead of a grid of the domain's size at the kernel support.
 constexpr double kMaxProbeGridCells = 4.0e6;
 
-/// A region's inside test, with the box's rotation as a matrix (one per evaluation, not per particle).
+/// A region's inside test, with the rotation as a matrix (one per evaluation, not per particle).
 struct RegionTest
 {
   RegionShape shape;
-  Mat3d world_to_local;  // R^T of the box's pose
-  Vec3d translation;     // m, of the box's pose
-  Vec3d min, max;        // m, the box in its frame
-  Vec3d center;          // m, the sphere's
-  double radius2;        // m^2, the sphere's squared radius
+  Mat3d world_to_local;                  // R^T of the box's or the body's pose
+  Vec3d translation;                     // m, of that pose
+  Vec3d min, max;                        // m, the box in its frame
+  Vec3d center;                          // m, the sphere's
+  double radius2;                        // m^2, the sphere's squared radius
+  const BoundaryConfig* body = nullptr;  // the body's shape in its frame (a body region)
 
-  explicit RegionTest(const RegionConfig& r)
+  RegionTest(const RegionConfig& r, const Pose& pose, const BoundaryConfig* body_shape)
       : shape(r.shape)
-      , world_to_local(r.pose.rotation.toRotationMatrix().transpose())
-      , translation(r.pose.translation)
+      , world_to_local(pose.rotation.toRotationMatrix().transpose())
+      , translation(pose.translation)
       , min(r.box.min)
       , max(r.box.max)
       , center(r.sphere.center)
       , radius2(r.sphere.radius * r.sphere.radius)
+      , body(body_shape)
   {
   }
 
   bool contains(const Vec3d& p) const
   {
-    if (shape == RegionShape::Sphere) return (p - center).squaredNorm() <= radius2;
-    const Vec3d local = world_to_local * (p - translation);
-    return (local.array() >= min.array()).all() && (local.array() <= max.array()).all();
+    switch (shape)
+    {
+      case RegionShape::Sphere:
+        return (p - center).squaredNorm() <= radius2;
+      case RegionShape::Box:
+      {
+        const Vec3d local = world_to_local * (p - translation);
+        return (local.array() >= min.array()).all() && (local.array() <= max.array()).all();
+      }
+      case RegionShape::Body:
+        return insideShape(*body, world_to_local * (p - translation));
+    }
+    return false;
   }
 };
+
+/// A primitive's volume, m^3.
+double shapeVolume(const BoundaryConfig& b)
+{
+  switch (b.type)
+  {
+    case ShapeType::Box:
+      return (b.box.max - b.box.min).prod();
+    case ShapeType::Sphere:
+      return 4.0 / 3.0 * M_PI * std::pow(b.sphere.radius, 3);
+    case ShapeType::Cylinder:
+      return M_PI * b.cylinder.radius * b.cylinder.radius * b.cylinder.length;
+    case ShapeType::Mesh:
+      return std::abs(enclosedVolume(b.mesh));
+  }
+  return 0.0;
+}
+
+/// Union-find root of `i` with path halving.
+std::size_t findRoot(std::vector<std::size_t>& parent, std::size_t i)
+{
+  while (parent[i] != i) i = parent[i] = parent[parent[i]];
+  return i;
+}
 
 /// Per-region sums of one chunk of particles.
 struct RegionSums
@@ -62,15 +104,115 @@ bool wetness(double fluid_support, double wall_support)
   return fluid_support > 0.0 && 2.0 * fluid_support + wall_support >= 1.0;
 }
 
-Measurements::Measurements(const SceneConfig& scene)
-    : regions_(scene.regions)
-    , probes_(scene.probes)
-    , spill_(scene.spill)
-    , domain_(scene.domain)
-    , support_(2.0 * scene.spacing)
-    , mass_(scene.rest_density * scene.spacing * scene.spacing * scene.spacing)
-    , rho0_(scene.rest_density)
+double enclosedVolume(const TriangleMesh& mesh)
 {
+  double six_v = 0.0;  // m^3, six times the volume
+  for (const auto& t : mesh.triangles) six_v += mesh.vertices[t[0]].dot(mesh.vertices[t[1]].cross(mesh.vertices[t[2]]));
+  return six_v / 6.0;
+}
+
+TriangleMesh closeOpenings(const TriangleMesh& mesh)
+{
+  TriangleMesh out;
+  out.vertices = mesh.vertices;
+  out.triangles = mesh.triangles;
+  // Directed edges a -> b of the triangles; a border edge has no twin b -> a.
+  const auto key = [](std::uint64_t a, std::uint64_t b) { return (a << 32) | b; };
+  std::unordered_set<std::uint64_t> edges;
+  for (const auto& t : mesh.triangles)
+    for (int k = 0; k < 3; ++k) edges.insert(key(std::uint32_t(t[k]), std::uint32_t(t[(k + 1) % 3])));
+  std::vector<std::pair<int, int>> border;
+  for (const auto& t : mesh.triangles)
+    for (int k = 0; k < 3; ++k)
+    {
+      const int a = t[k], b = t[(k + 1) % 3];
+      if (!edges.count(key(std::uint32_t(b), std::uint32_t(a)))) border.emplace_back(a, b);
+    }
+  if (!border.empty())
+  {
+    // Openings: border edges joined through shared vertices. Each gets a fan from the centroid
+    // of its vertices; the fan runs each border edge backwards (b, a, c), so it is the edge's twin.
+    std::vector<std::size_t> parent(mesh.vertices.size());
+    for (std::size_t i = 0; i < parent.size(); ++i) parent[i] = i;
+    for (const auto& [a, b] : border) parent[findRoot(parent, a)] = findRoot(parent, b);
+    std::unordered_map<std::size_t, Vec3d> sum;     // m, per opening
+    std::unordered_map<std::size_t, double> count;  // vertices, per opening
+    std::unordered_set<int> counted;
+    for (const auto& [a, b] : border)
+      for (int v : {a, b})
+        if (counted.insert(v).second)
+        {
+          const std::size_t root = findRoot(parent, v);
+          sum.try_emplace(root, Vec3d::Zero()).first->second += mesh.vertices[v];
+          count[root] += 1.0;
+        }
+    std::unordered_map<std::size_t, int> centroid;  // opening -> index of its centroid vertex
+    for (const auto& [root, s] : sum)
+    {
+      centroid[root] = int(out.vertices.size());
+      out.vertices.push_back(s / count[root]);
+    }
+    for (const auto& [a, b] : border) out.triangles.push_back({b, a, centroid[findRoot(parent, a)]});
+  }
+  if (enclosedVolume(out) < 0.0)
+    for (auto& t : out.triangles) std::swap(t[1], t[2]);
+  return out;
+}
+
+Measurements::Measurements(const Simulation& sim)
+    : regions_(sim.scene().regions)
+    , probes_(sim.scene().probes)
+    , spill_(sim.scene().spill)
+    , domain_(sim.scene().domain)
+    , support_(2.0 * sim.scene().spacing)
+    , mass_(sim.scene().rest_density * std::pow(sim.scene().spacing, 3))
+    , rho0_(sim.scene().rest_density)
+{
+  const SceneConfig& scene = sim.scene();
+  capacity_.resize(regions_.size());
+  body_index_.assign(regions_.size(), 0);
+  body_shape_.resize(regions_.size());
+  for (std::size_t k = 0; k < regions_.size(); ++k)
+  {
+    const RegionConfig& r = regions_[k];
+    switch (r.shape)
+    {
+      case RegionShape::Box:
+        capacity_[k] = (r.box.max - r.box.min).prod();
+        break;
+      case RegionShape::Sphere:
+        capacity_[k] = 4.0 / 3.0 * M_PI * std::pow(r.sphere.radius, 3);
+        break;
+      case RegionShape::Body:
+      {
+        std::size_t index = scene.boundaries.size();
+        for (std::size_t b = 0; b < scene.boundaries.size(); ++b)
+          if (scene.boundaries[b].name == r.body) index = b;
+        if (index == scene.boundaries.size())
+        {
+          std::string names;
+          for (const BoundaryConfig& b : scene.boundaries) names += (names.empty() ? "" : ", ") + b.name;
+          throw ConfigError(
+              "regions[" + std::to_string(k) + "].body",
+              "no boundary body named '" + r.body + "' (bodies: " + (names.empty() ? "none" : names) + ")");
+        }
+        body_index_[k] = index;
+        BoundaryConfig shape = scene.boundaries[index];
+        if (shape.type == ShapeType::Cylinder) shape.cylinder.axis.normalize();
+        if (shape.type == ShapeType::Mesh)
+        {
+          // The inside test (insideShape) wants a closed, outward mesh; an open one (a cup) is
+          // closed over its rim, a closed one is only oriented (its normals may point inward).
+          shape.mesh = closeOpenings(shape.mesh);
+          shape.mesh_closed = true;
+          buildInsideIndex(shape.mesh);
+        }
+        capacity_[k] = shapeVolume(shape);
+        body_shape_[k] = std::move(shape);
+        break;
+      }
+    }
+  }
 }
 
 Measurements::~Measurements() = default;
@@ -78,17 +220,6 @@ Measurements::~Measurements() = default;
 bool Measurements::empty() const
 {
   return regions_.empty() && probes_.empty() && !spill_.enabled;
-}
-
-double Measurements::capacity(const RegionConfig& region)
-{
-  if (region.shape == RegionShape::Sphere) return 4.0 / 3.0 * M_PI * std::pow(region.sphere.radius, 3);
-  return (region.box.max - region.box.min).prod();
-}
-
-bool Measurements::contains(const RegionConfig& region, const Vec3d& point)
-{
-  return RegionTest(region).contains(point);
 }
 
 MeasurementReport Measurements::evaluate(const Simulation& sim)
@@ -105,7 +236,14 @@ void Measurements::measureRegions(const Simulation& sim, MeasurementReport& out)
 {
   std::vector<RegionTest> tests;
   tests.reserve(regions_.size());
-  for (const RegionConfig& r : regions_) tests.emplace_back(r);
+  for (std::size_t k = 0; k < regions_.size(); ++k)
+  {
+    const RegionConfig& r = regions_[k];
+    if (r.shape == RegionShape::Body)
+      tests.emplace_back(r, sim.body(body_index_[k]).pose, &body_shape_[k]);  // where the body is now
+    else
+      tests.emplace_back(r, r.pose, nullptr);
+  }
   const std::size_t nr = regions_.size();
   const std::vector<Vec3>& x = sim.positions();
   const std::vector<Vec3>& v = sim.velocities();
@@ -152,7 +290,7 @@ void Measurements::measureRegions(const Simulation& sim, MeasurementReport& out)
     m.particles = sums.count[k];
     m.volume = double(m.particles) * particle_volume;
     m.mass = double(m.particles) * mass_;
-    m.capacity = capacity(regions_[k]);
+    m.capacity = capacity_[k];
     m.fill_fraction = m.capacity > 0.0 ? m.volume / m.capacity : 0.0;
     m.mean_velocity = m.particles > 0 ? Vec3d(sums.velocity[k] / double(m.particles)) : Vec3d::Zero();
   }

@@ -168,6 +168,9 @@ void validateInstruments(const SceneConfig& s)
         requireFinite(r.sphere.center, key + ".sphere.center");
         requirePositive(r.sphere.radius, key + ".sphere.radius");
         break;
+      case RegionShape::Body:
+        if (r.body.empty()) throw ConfigError(key + ".body", "must name a boundary body");
+        break;
     }
   }
   for (std::size_t i = 0; i < s.probes.size(); ++i)

@@ -415,31 +415,47 @@ void checkBudget(const Entry& e, const BoundaryConfig& b, const LoadContext& ctx
                           lineOf(e.node));
 }
 
-/// One entry of `regions`: {name, box: {min, max}, pose: {xyz, rpy}} or {name, sphere: {center,
-/// radius}}. A name is required: it is the region's topic and its rows' label.
+/// One entry of `regions`: {name, box: {min, max}, pose: {xyz, rpy}}, {name, sphere: {center,
+/// radius}} or {name, body: NAME}. A name is required: it is the region's topic and its rows'
+/// label.
 RegionConfig readRegion(const Entry& e)
 {
   MapReader r(e);
-  const std::optional<Entry> name = r.get("name"), box = r.get("box"), sphere = r.get("sphere"), pose = r.get("pose");
+  const std::optional<Entry> name = r.get("name"), pose = r.get("pose");
+  std::vector<Entry> shapes;
+  for (const char* key : {"box", "sphere", "body"})
+    if (auto shape = r.get(key)) shapes.push_back(*shape);
   r.finish();  // a misspelt key first, with the key it may mean
-  if (bool(box) == bool(sphere))
-    throw ConfigError(e.key,
-                      (box ? "give either box or sphere, not both" : "needs a shape: box or sphere") + lineOf(e.node));
+  const auto shapeName = [](const Entry& shape) { return shape.key.substr(shape.key.rfind('.') + 1); };
+  if (shapes.size() != 1)
+    throw ConfigError(e.key, (shapes.empty() ? std::string("needs a shape: box, sphere or body")
+                                             : "has two shapes, '" + shapeName(shapes[0]) + "' and '" +
+                                                   shapeName(shapes[1]) + "'; give exactly one") +
+                                 lineOf(e.node));
   RegionConfig region;
   readInto(name ? *name : r.require("name"), region.name);
-  if (box)
+  const Entry& shape = shapes.front();
+  const std::string shape_name = shapeName(shape);
+  if (pose && shape_name != "box")
+    throw ConfigError(pose->key,
+                      "only a box region has a pose (a sphere is placed by its center, a body region "
+                      "follows its body)" +
+                          lineOf(pose->node));
+  if (shape_name == "box")
   {
     region.shape = RegionShape::Box;
-    region.box = readBox(*box);
+    region.box = readBox(shape);
     if (pose) region.pose = readPose(*pose);
+  }
+  else if (shape_name == "sphere")
+  {
+    region.shape = RegionShape::Sphere;
+    region.sphere = readSphere(shape);
   }
   else
   {
-    if (pose)
-      throw ConfigError(pose->key,
-                        "only a box region has a pose (a sphere is placed by its center)" + lineOf(pose->node));
-    region.shape = RegionShape::Sphere;
-    region.sphere = readSphere(*sphere);
+    region.shape = RegionShape::Body;
+    readInto(shape, region.body);
   }
   return region;
 }

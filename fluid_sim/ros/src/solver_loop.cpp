@@ -68,7 +68,10 @@ void SolverLoop::build(const std::map<std::string, Pose>& poses)
   try
   {
     auto next = std::make_unique<Simulation>(scene);
+    // The instruments (a region's body may be a URDF link): before anything is replaced.
+    auto instruments = std::make_unique<Measurements>(*next);
     sim_ = std::move(next);
+    measurements_ = instruments->empty() ? nullptr : std::move(instruments);
   }
   catch (const ConfigError& e)
   {
@@ -83,8 +86,6 @@ void SolverLoop::build(const std::map<std::string, Pose>& poses)
     body_ranges_.emplace_back(b.first_particle, b.num_particles);
   }
   wrench_means_.reset(nb);
-  measurements_ = std::make_unique<Measurements>(sim_->scene());
-  if (measurements_->empty()) measurements_.reset();
   sim_time_ = sim_->time();  // build() runs before start() or under cmd_mutex_ (reset)
   boundary_dirty_ = true;
   reanchor_ = true;

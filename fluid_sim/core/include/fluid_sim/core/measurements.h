@@ -61,6 +61,15 @@ struct MeasurementReport
   SpillMeasurement spill;
 };
 
+/// `mesh` with each opening of its border (the chains of edges only one triangle has, grouped by
+/// shared vertices) closed by a fan from the opening's centroid, oriented so that the result
+/// encloses a positive volume: a cup's inside up to its rim. A closed mesh comes back as it is
+/// (oriented outward).
+TriangleMesh closeOpenings(const TriangleMesh& mesh);
+
+/// Volume enclosed by a closed mesh, m^3 (divergence theorem); negative if its normals point inward.
+double enclosedVolume(const TriangleMesh& mesh);
+
 /// The wetness rule of a probe from its fluid support phi_f = sum_f (m/rho0) W and wall support
 /// phi_b = sum_b V_b W: wet when 2 phi_f + phi_b >= 1, i.e. when fluid fills at least as much of
 /// the kernel as the empty part 1 - phi_f - phi_b does. Deep in water phi_f = 1; on a flat free
@@ -72,8 +81,10 @@ bool wetness(double fluid_support, double wall_support);
 class Measurements
 {
 public:
-  /// Takes the instruments of `scene` (validated by validate()).
-  explicit Measurements(const SceneConfig& scene);
+  /// Takes the instruments of the scene `sim` was built from. A region's `body` must name one of
+  /// its bodies (else ConfigError naming regions[i].body); an open mesh's openings are closed
+  /// here, once.
+  explicit Measurements(const Simulation& sim);
   ~Measurements();
   Measurements(const Measurements&) = delete;
   Measurements& operator=(const Measurements&) = delete;
@@ -99,16 +110,22 @@ public:
   /// particles into a grid around them.
   MeasurementReport evaluate(const Simulation& sim);
 
-  /// The geometric volume of a region, m^3.
-  static double capacity(const RegionConfig& region);
-  /// Whether a world point (m) lies inside a region (on its surface counts as inside).
-  static bool contains(const RegionConfig& region, const Vec3d& point);
+  /// The geometric volume of region k, m^3.
+  double capacity(std::size_t k) const
+  {
+    return capacity_[k];
+  }
 
 private:
   void measureRegions(const Simulation& sim, MeasurementReport& out) const;
   void measureProbes(const Simulation& sim, MeasurementReport& out);
 
   std::vector<RegionConfig> regions_;
+  std::vector<double> capacity_;  // m^3, per region
+  // Per region: the body (index) and its shape as tested, in the body frame (an open mesh
+  // closed over its openings); unused for box and sphere regions.
+  std::vector<std::size_t> body_index_;
+  std::vector<BoundaryConfig> body_shape_;
   std::vector<ProbeConfig> probes_;
   SpillConfig spill_;
   AxisBox domain_;  // m, the scene's: fluid never is outside it

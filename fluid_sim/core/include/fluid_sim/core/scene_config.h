@@ -251,8 +251,9 @@ struct OutputConfig
 /// it: a scene without them runs exactly as before.
 enum class RegionShape
 {
-  Box,    // key: box {min, max} (with an optional pose)
-  Sphere  // key: sphere {center, radius}
+  Box,     // key: box {min, max} (with an optional pose)
+  Sphere,  // key: sphere {center, radius}
+  Body     // key: body NAME: the inside of a boundary body or URDF link, following its pose
 };
 
 /// A named volume the water in it is measured in (key regions[i]).
@@ -265,6 +266,11 @@ struct RegionConfig
   AxisBox box;         // m, in the region's frame                  key: box {min, max}
   Pose pose;           // region frame -> world (a box only)        key: pose {xyz, rpy}
   SphereShape sphere;  // m, world                                  key: sphere {center, radius}
+  // key: body. A boundary body's name (a URDF link's is the link name). Its inside: a primitive's
+  // solid, a closed mesh's enclosed volume, an open mesh (a cup) closed over each opening of its
+  // border (the rim), so the volume it holds up to its rim. Checked against the bodies when the
+  // instruments are built (the node adds the URDF links after the scene is read).
+  std::string body;
 };
 
 /// A point the fluid's pressure, velocity and density are interpolated at (key probes[i]).
