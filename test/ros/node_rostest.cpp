@@ -34,6 +34,7 @@
 #include "fluid_msgs/ProbeArray.h"
 #include "fluid_msgs/RegionState.h"
 #include "fluid_msgs/SolverStats.h"
+#include "fluid_msgs/Spill.h"
 #include "fluid_msgs/StepSimulation.h"
 
 extern char** environ;
@@ -256,6 +257,13 @@ TEST(Tank, PublishesRegionAndProbes)
   EXPECT_EQ(link->name, "link");
   EXPECT_EQ(int(link->particles), lattice);
   EXPECT_NEAR(link->capacity, 0.3 * 0.15 * 0.3, 1e-9);
+  // Spill below 0.5 m outside both regions: none, the tank holds it all.
+  auto spill = waitFor<fluid_msgs::Spill>("/fluid_sim/spill", 10.0);
+  ASSERT_TRUE(spill) << "no message on /fluid_sim/spill";
+  EXPECT_EQ(spill->header.frame_id, "world");
+  EXPECT_DOUBLE_EQ(spill->below, 0.5);
+  EXPECT_EQ(spill->particles, 0u);
+  EXPECT_EQ(spill->volume, 0.0);
 
   // Settled (after t = 1.5 s as the wrench test): the floor probe reads rho0 g d, averaged over
   // twenty messages (the water still sloshes a little); the air probe is dry.

@@ -70,6 +70,7 @@ void Publishers::advertise(ros::NodeHandle& nh, const std::vector<BodyTopic>& bo
   for (const RegionConfig& r : sim.scene().regions)
     pub_regions_.push_back(nh.advertise<fluid_msgs::RegionState>("regions/" + r.name, 10));
   if (!sim.scene().probes.empty()) pub_probes_ = nh.advertise<fluid_msgs::ProbeArray>("probes", 10);
+  if (sim.scene().spill.enabled) pub_spill_ = nh.advertise<fluid_msgs::Spill>("spill", 10);
 
   // Scene bodies are no tf frames of anyone else's: their wrenches are stamped in frames the
   // node publishes, children of the fixed frame at the bodies' poses.
@@ -185,6 +186,7 @@ void Publishers::run()
     }
     for (std::size_t k = 0; k < f.regions.size() && k < pub_regions_.size(); ++k) pub_regions_[k].publish(f.regions[k]);
     if (pub_probes_ && !f.probes.probes.empty()) pub_probes_.publish(f.probes);
+    if (pub_spill_ && f.spill_valid) pub_spill_.publish(f.spill);
     pub_stats_.publish(f.stats);
   }
 }

@@ -554,6 +554,7 @@ void SolverLoop::publishFrame(const StepReport& rep, double paced_rtf)
   wrench_means_.take(*sim_, f.wrenches.wrenches);
   f.regions.clear();
   f.probes.probes.clear();
+  f.spill_valid = false;
   if (measurements_)
   {
     const MeasurementReport m = measurements_->evaluate(*sim_);
@@ -566,6 +567,15 @@ void SolverLoop::publishFrame(const StepReport& rep, double paced_rtf)
     f.probes.header.stamp = f.stamp;
     f.probes.header.frame_id = opt_.fixed_frame;
     for (const ProbeMeasurement& p : m.probes) f.probes.probes.push_back(toProbe(p));
+    f.spill_valid = m.spill.enabled;
+    if (f.spill_valid)
+    {
+      f.spill.header = f.probes.header;
+      f.spill.below = m.spill.below;
+      f.spill.particles = static_cast<std::uint32_t>(m.spill.particles);
+      f.spill.volume = m.spill.volume;
+      f.spill.mass = m.spill.mass;
+    }
   }
   f.stats = toSolverStats(rep, *sim_, rtf_measured_, paused_, last_status_);
   f.stats.header.stamp = f.stamp;

@@ -23,6 +23,7 @@
 #include "fluid_msgs/ProbeArray.h"
 #include "fluid_msgs/RegionState.h"
 #include "fluid_msgs/SolverStats.h"
+#include "fluid_msgs/Spill.h"
 #include "fluid_sim/core/simulation.h"
 #include "fluid_sim/ros/messages.h"
 #include "fluid_sim/ros/node_parameters.h"
@@ -48,6 +49,8 @@ struct Frame
   // scene without them.
   std::vector<fluid_msgs::RegionState> regions;  // per region, in the scene's order
   fluid_msgs::ProbeArray probes;
+  bool spill_valid = false;  // the scene has a spill key
+  fluid_msgs::Spill spill;
 };
 
 /// The wrenches published: per body, the time-weighted mean over the steps since the last
@@ -92,9 +95,8 @@ public:
 
   /// Advertises the topics in `nh` (the node's namespace, so that they are remapped as users
   /// expect), with one wrench topic per body, one regions/<name> topic per region of the scene
-  /// and, for a scene with probes, the probes topic, and publishes the frames of the scene bodies that
-  /// do not move on /tf_static (their poses in `sim`). Moving scene bodies go on /tf with each
-  /// frame.
+  /// and, for a scene with probes or a spill key, the probes and spill topics, and publishes the frames of the scene
+  /// bodies that do not move on /tf_static (their poses in `sim`). Moving scene bodies go on /tf with each frame.
   void advertise(ros::NodeHandle& nh, const std::vector<BodyTopic>& bodies, const Simulation& sim);
 
   /// Most points in the particles cloud (0 = all); may change while running.
@@ -135,6 +137,7 @@ private:
   std::vector<ros::Publisher> pub_link_wrench_;  // per body, wrench/<name>
   std::vector<ros::Publisher> pub_regions_;      // per region, regions/<name>
   ros::Publisher pub_probes_;                    // probes, for a scene with probes
+  ros::Publisher pub_spill_;                     // spill, for a scene with a spill key
   std::vector<BodyTopic> bodies_;                // per body: topic and wrench frame
   std::unique_ptr<tf2_ros::TransformBroadcaster> tf_;
   std::unique_ptr<tf2_ros::StaticTransformBroadcaster> tf_static_;
