@@ -1,4 +1,5 @@
-// fluid_sim_run: runs a scene headless and writes PLY frames, stats.csv and summary.json.
+// fluid_sim_run: runs a scene headless and writes PLY frames, stats.csv and summary.json, and the
+// instruments' regions.csv, probes.csv and spill.csv when the scene declares them.
 //
 //   fluid_sim_run SCENE.yaml [--duration S] [--out DIR] [--set key.path=value ...] [--threads N]
 //
@@ -18,11 +19,14 @@
 #include <filesystem>
 #include <iostream>
 #include <memory>
+#include <optional>
 #include <regex>
 #include <string>
 #include <vector>
 
+#include "fluid_sim/core/measurements.h"
 #include "fluid_sim/core/simulation.h"
+#include "fluid_sim/io/measurement_writer.h"
 #include "fluid_sim/io/ply_writer.h"
 #include "fluid_sim/io/run_summary.h"
 #include "fluid_sim/io/scene_loader.h"
@@ -203,11 +207,13 @@ int run(const Options& options)
   using namespace fluid_sim;
 
   std::unique_ptr<Simulation> sim;
+  std::unique_ptr<Measurements> instruments;  // the scene's regions, probes and spill
   try
   {
     const SceneConfig scene = io::loadScene(options.scene, options.overrides);
     for (const std::string& warning : scene.warnings) std::cerr << "warning: " << warning << '\n';
     sim = std::make_unique<Simulation>(scene);
+    instruments = std::make_unique<Measurements>(*sim);  // a region's body must be one of sim's
   }
   catch (const io::SceneError& e)
   {
@@ -245,6 +251,39 @@ int run(const Options& options)
   };
   writeFrameIfDue(sim->time(), 0.0, false);
 
+  // Instruments (regions, probes, spill): measured at the frame times (frame k after the step
+  // that ends nearest to k * frame_interval), and after the last step; without frames
+  // (frame_interval 0) at the start and after the last step. A scene without them measures nothing.
+  std::unique_ptr<io::MeasurementCsvWriter> instrument_csv;
+  if (!instruments->empty())
+    instrument_csv = std::make_unique<io::MeasurementCsvWriter>(out_dir.string(), *instruments);
+  std::size_t measure_slot = 0;  // the next measurement is due at measure_slot * frame_interval
+  double last_measured = -1.0;   // s, simulated time of the last measurement
+  std::size_t measurements = 0;
+  double measure_ms = 0.0;  // wall time of all evaluations
+  std::optional<io::SpillSummary> spill;
+  if (scene.spill.enabled) spill = io::SpillSummary{scene.spill.below, 0, 0.0, 0, 0.0};
+  const auto measureIfDue = [&](double t, double dt, bool force) {
+    if (!instrument_csv || t == last_measured) return;
+    if (!force && (frame_interval <= 0.0 || t + 0.5 * dt < measure_slot * frame_interval)) return;
+    const auto measure_start = Clock::now();
+    const MeasurementReport m = instruments->evaluate(*sim);
+    measure_ms += 1000.0 * secondsSince(measure_start);
+    ++measurements;
+    instrument_csv->write(m);
+    if (spill)
+    {
+      spill->particles = m.spill.particles;
+      spill->volume = m.spill.volume;
+      spill->max_particles = std::max(spill->max_particles, m.spill.particles);
+      spill->max_volume = std::max(spill->max_volume, m.spill.volume);
+    }
+    last_measured = t;
+    if (frame_interval > 0.0)
+      measure_slot = std::max(measure_slot, static_cast<std::size_t>(std::floor((t + 0.5 * dt) / frame_interval)) + 1);
+  };
+  measureIfDue(sim->time(), 0.0, true);
+
   Progress progress(duration);
   std::string status = "ok";
   std::string reason;
@@ -268,20 +307,25 @@ int run(const Options& options)
     if (report.unstable)
     {
       writeFrameIfDue(report.time, report.dt, true);  // the state that blew up, for inspection
+      measureIfDue(report.time, report.dt, true);
       status = "unstable";
       reason = report.reason.empty() ? "unstable" : report.reason;
       break;
     }
     writeFrameIfDue(report.time, report.dt, false);
+    measureIfDue(report.time, report.dt, false);
     progress.update(report.time);
     if (secondsSince(last_flush) > 1.0)  // keep stats.csv current for a reader following it
     {
       csv.flush();
+      if (instrument_csv) instrument_csv->flush();
       last_flush = Clock::now();
     }
   }
   progress.finish(sim->time());
   csv.flush();
+  measureIfDue(sim->time(), 0.0, true);  // the final state (unless just measured)
+  if (instrument_csv) instrument_csv->flush();
 
   io::RunSummary summary = io::summarize(*sim, stats);
   summary.threads = options.threads;
@@ -289,8 +333,17 @@ int run(const Options& options)
   summary.wall_time = secondsSince(start);
   summary.status = status;
   summary.reason = reason;
+  summary.spill = spill;
   io::writeSummaryJson((out_dir / "summary.json").string(), summary);
   printSummary(summary, sim->fillReport(), sim->scene().fill.relax, out_dir, frames);
+  if (measurements > 0)
+  {
+    std::printf("measured %zu times (%.3f ms each)", measurements, measure_ms / double(measurements));
+    if (spill)
+      std::printf("; spill below %g m: %zu particles (%.4g m^3) at the end", spill->below, spill->particles,
+                  spill->volume);
+    std::printf("\n");
+  }
 
   if (status == "unstable")
   {

@@ -13,8 +13,10 @@
 #include <cstdlib>
 #include <filesystem>
 #include <nlohmann/json.hpp>
+#include <sstream>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include "temp_dir.h"
 
@@ -169,6 +171,125 @@ TEST(Runner, SigintWritesInterruptedSummary)
   const nlohmann::json summary = readJson(out + "/summary.json");
   EXPECT_EQ(summary["status"], "interrupted");
   EXPECT_GT(summary["steps"].get<int>(), 0);
+}
+
+/// The lines of a text file, without their newlines.
+std::vector<std::string> lines(const std::string& path)
+{
+  std::vector<std::string> out;
+  std::istringstream in(test::readFile(path));
+  for (std::string line; std::getline(in, line);) out.push_back(line);
+  return out;
+}
+
+/// The comma-separated fields of a CSV line.
+std::vector<std::string> fields(const std::string& line)
+{
+  std::vector<std::string> out;
+  std::istringstream in(line);
+  for (std::string field; std::getline(in, field, ',');) out.push_back(field);
+  return out;
+}
+
+const char* const kInstruments = R"yaml(
+regions:
+  - name: tank_water
+    box: {min: [0, 0, 0], max: [0.4, 0.4, 0.5]}
+  - name: ball_zone
+    sphere: {center: [0.3, 0.3, 0.1], radius: 0.1}
+probes:
+  - name: deep
+    position: [0.15, 0.15, 0.15]
+  - name: air
+    position: [0.15, 0.15, 0.45]
+spill: {below: 0.6}
+)yaml";
+
+TEST(Runner, WritesInstrumentFiles)
+{
+  test::TempDir dir;
+  dir.write("tiny.yaml", std::string(kTinyScene) + kInstruments);
+  const RunResult r = run(dir, "tiny.yaml --out result --threads 1");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+
+  // One row per region and per probe at each of the five frame times (t = 0, 0.05, ..., 0.2 s).
+  const std::vector<std::string> regions = lines(dir.file("result/regions.csv"));
+  ASSERT_EQ(regions.size(), 1u + 5u * 2u);
+  EXPECT_EQ(regions[0], "t,region,volume_m3,mass_kg,fill_fraction,vx,vy,vz,particles");
+  // At t = 0 the tank holds the 64 particles of the 0.2 m cube: 0.008 m^3 of the tank's 0.08.
+  const std::vector<std::string> first = fields(regions[1]);
+  ASSERT_EQ(first.size(), 9u);
+  EXPECT_EQ(first[0], "0");
+  EXPECT_EQ(first[1], "tank_water");
+  EXPECT_NEAR(std::stod(first[2]), 0.008, 1e-12);
+  EXPECT_NEAR(std::stod(first[3]), 8.0, 1e-9);
+  EXPECT_NEAR(std::stod(first[4]), 0.1, 1e-9);
+  EXPECT_EQ(first[8], "64");
+  EXPECT_EQ(fields(regions[2])[1], "ball_zone");
+  const std::vector<std::string> last = fields(regions.back());
+  EXPECT_NEAR(std::stod(last[0]), 0.2, 1e-9);
+  EXPECT_EQ(fields(regions[regions.size() - 2])[8], "64");  // the tank keeps its water
+
+  const std::vector<std::string> probes = lines(dir.file("result/probes.csv"));
+  ASSERT_EQ(probes.size(), 1u + 5u * 2u);
+  EXPECT_EQ(probes[0], "t,probe,x,y,z,pressure_pa,density,vx,vy,vz,wet");
+  // At t = 0 `deep` is the water cube's centre (wet, about rest density; no pressure before the
+  // first step), `air` above it; at the end `air` is still dry and reads no pressure.
+  const std::vector<std::string> deep = fields(probes[1]), air = fields(probes.back());
+  ASSERT_EQ(deep.size(), 11u);
+  EXPECT_EQ(deep[1], "deep");
+  EXPECT_NEAR(std::stod(deep[4]), 0.15, 1e-12);
+  EXPECT_EQ(deep[10], "1");
+  EXPECT_GT(std::stod(deep[6]), 900.0);
+  EXPECT_EQ(air[1], "air");
+  EXPECT_NEAR(std::stod(air[0]), 0.2, 1e-9);
+  EXPECT_EQ(air[10], "0");
+  EXPECT_EQ(air[5], "0");
+
+  const std::vector<std::string> spill = lines(dir.file("result/spill.csv"));
+  ASSERT_EQ(spill.size(), 1u + 5u);
+  EXPECT_EQ(spill[0], "t,below_m,particles,volume_m3,mass_kg");
+  const nlohmann::json summary = readJson(dir.file("result/summary.json"));
+  ASSERT_TRUE(summary.contains("spill"));
+  EXPECT_DOUBLE_EQ(summary["spill"]["below_m"].get<double>(), 0.6);
+  EXPECT_EQ(summary["spill"]["particles"], 0);  // all inside the tank region
+  EXPECT_NE(r.out.find("measured 5 times"), std::string::npos) << r.out;
+}
+
+TEST(Runner, InstrumentsSpillOutsideRegionsAndNoFilesWithoutThem)
+{
+  test::TempDir dir;
+  // Only the ball's neighbourhood is a region: the water in the tank's floor layers is spilt.
+  dir.write("tiny.yaml", std::string(kTinyScene) +
+                             "regions: [{name: ball_zone, sphere: {center: [0.3, 0.3, 0.1], radius: 0.1}}]\n"
+                             "spill: {below: 0.6}\n");
+  RunResult r = run(dir, "tiny.yaml --out spilt --threads 1 --duration 0.02 --set output.frame_interval=0");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  // Without frames: measured at the start and after the last step.
+  EXPECT_EQ(lines(dir.file("spilt/regions.csv")).size(), 1u + 2u);
+  EXPECT_FALSE(fs::exists(dir.path() / "spilt" / "probes.csv"));
+  const nlohmann::json summary = readJson(dir.file("spilt/summary.json"));
+  const std::size_t in_zone = std::stoul(fields(lines(dir.file("spilt/regions.csv")).back())[8]);
+  EXPECT_EQ(summary["spill"]["particles"].get<std::size_t>() + in_zone, 64u);
+  EXPECT_GT(summary["spill"]["particles"].get<std::size_t>(), 0u);
+
+  dir.write("plain.yaml", kTinyScene);
+  r = run(dir, "plain.yaml --out plain --threads 1 --duration 0.02 --set output.frame_interval=0");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  for (const char* file : {"regions.csv", "probes.csv", "spill.csv"})
+    EXPECT_FALSE(fs::exists(dir.path() / "plain" / file)) << file;
+  EXPECT_FALSE(readJson(dir.file("plain/summary.json")).contains("spill"));
+}
+
+TEST(Runner, RegionOfAnUnknownBodyExitsTwoNamingIt)
+{
+  test::TempDir dir;
+  dir.write("tiny.yaml", std::string(kTinyScene) + "regions: [{name: cup, body: mug}]\n");
+  const RunResult r = run(dir, "tiny.yaml --out result");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("error: tiny.yaml: regions[0].body: no boundary body named 'mug' (bodies: tank, ball)"),
+            std::string::npos)
+      << r.err;
 }
 
 }  // namespace

@@ -509,3 +509,76 @@ TEST(SceneLoader, FluidParticleBudgetIsAKey)
 }
 
 }  // namespace fluid_sim
+
+namespace fluid_sim
+{
+namespace
+{
+const std::string kInstruments = R"yaml(
+regions:
+  - name: cup
+    box: {min: [0.1, 0.1, 0.1], max: [0.3, 0.3, 0.3]}
+    pose: {xyz: [0.05, 0, 0], rpy: [0, 0, 1.5707963267948966]}
+  - name: bowl
+    sphere: {center: [0.5, 0.5, 0.2], radius: 0.1}
+  - name: in_tank
+    body: tank
+probes:
+  - name: p1
+    position: [0.3, 0.3, 0.2]
+spill: {below: 0.05}
+)yaml";
+}  // namespace
+
+TEST(SceneLoader, InstrumentKeys)
+{
+  const SceneConfig s = parseScene(kBase + kInstruments, "scene.yaml");
+  ASSERT_EQ(s.regions.size(), 3u);
+  EXPECT_EQ(s.regions[0].name, "cup");
+  EXPECT_EQ(s.regions[0].shape, RegionShape::Box);
+  EXPECT_TRUE(s.regions[0].box.max.isApprox(Vec3d(0.3, 0.3, 0.3)));
+  EXPECT_TRUE(s.regions[0].pose.apply(Vec3d(1, 0, 0)).isApprox(Vec3d(0.05, 1, 0), 1e-12));
+  EXPECT_EQ(s.regions[1].name, "bowl");
+  EXPECT_EQ(s.regions[1].shape, RegionShape::Sphere);
+  EXPECT_DOUBLE_EQ(s.regions[1].sphere.radius, 0.1);
+  EXPECT_EQ(s.regions[2].shape, RegionShape::Body);
+  EXPECT_EQ(s.regions[2].body, "tank");  // the loader does not know the bodies a node adds
+  ASSERT_EQ(s.probes.size(), 1u);
+  EXPECT_EQ(s.probes[0].name, "p1");
+  EXPECT_TRUE(s.probes[0].position.isApprox(Vec3d(0.3, 0.3, 0.2)));
+  EXPECT_TRUE(s.spill.enabled);
+  EXPECT_DOUBLE_EQ(s.spill.below, 0.05);
+
+  // None of them by default.
+  const SceneConfig plain = parseScene(kBase, "scene.yaml");
+  EXPECT_TRUE(plain.regions.empty());
+  EXPECT_TRUE(plain.probes.empty());
+  EXPECT_FALSE(plain.spill.enabled);
+}
+
+TEST(SceneLoader, BadInstrumentKeysAreNamed)
+{
+  const std::string scene = kBase + kInstruments;
+  expectError(scene, "regions[1].sphere.radius", "must be > 0", {"regions[1].sphere.radius=0"});
+  expectError(scene, "regions[1].name", "duplicate name 'cup'", {"regions[1].name=cup"});
+  expectError(scene, "regions[0].name", "no valid ROS name", {"regions[0].name=my cup"});
+  expectError(scene, "regions[0].box", "max must exceed min", {"regions[0].box.max=[0.1, 0.3, 0.3]"});
+  expectError(scene, "probes[0].name", "no valid ROS name", {"probes[0].name=p-1"});
+  expectError(scene, "probes[0].position", "", {"probes[0].position=[1, 2]"});
+  expectError(scene, "spill.below", "", {"spill.below=high"});
+  expectError(kBase + "regions:\n  - {box: {min: [0, 0, 0], max: [1, 1, 1]}}\n", "regions[0].name", "missing");
+  expectError(kBase + "regions:\n  - {name: a}\n", "regions[0]", "needs a shape: box, sphere or body");
+  expectError(kBase +
+                  "regions:\n  - {name: a, box: {min: [0, 0, 0], max: [1, 1, 1]}, "
+                  "sphere: {center: [0, 0, 0], radius: 1}}\n",
+              "regions[0]", "has two shapes, 'box' and 'sphere'");
+  expectError(kBase + "regions:\n  - {name: a, body: tank, pose: {xyz: [0, 0, 0]}}\n", "regions[0].pose",
+              "only a box region");
+  expectError(kBase + "regions:\n  - {name: a, body: ''}\n", "regions[0].body", "must name a boundary body");
+  expectError(kBase + "regions:\n  - {name: a, sphere: {center: [0, 0, 0], radius: 1}, pose: {xyz: [0, 0, 0]}}\n",
+              "regions[0].pose", "only a box region");
+  expectError(kBase + "probes:\n  - {name: a, positon: [0, 0, 0]}\n", "probes[0].positon", "unknown key");
+  expectError(kBase + "spill: {}\n", "spill.below", "missing");
+}
+
+}  // namespace fluid_sim

@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
+#include <map>
 #include <mutex>
 #include <sstream>
 #include <string>
@@ -31,7 +32,10 @@
 #include <tf2_ros/transform_listener.h>
 
 #include "fluid_msgs/ContactWrenchArray.h"
+#include "fluid_msgs/ProbeArray.h"
+#include "fluid_msgs/RegionState.h"
 #include "fluid_msgs/SolverStats.h"
+#include "fluid_msgs/Spill.h"
 #include "fluid_msgs/StepSimulation.h"
 
 extern char** environ;
@@ -236,6 +240,127 @@ TEST(Tank, FloorWrenchEqualsTheWaterWeight)
   ASSERT_TRUE(single);
   EXPECT_EQ(single->header.frame_id, "tank");
   EXPECT_LT(single->wrench.force.z, -0.5 * weight);
+}
+
+TEST(Tank, PublishesRegionAndProbes)
+{
+  // tank_scene.yaml: region `water` (the tank's inside, 0.3 x 0.15 x 0.3 m, grown by half a
+  // spacing), region `link` (the URDF link tank's inside: counted up to its particle layer), probe `floor` at
+  // z = 0.075 m and probe `air` at z = 0.25 m, above the 0.15 m water layer.
+  double spacing = 0, rho0 = 0;
+  ros::param::get("/fluid_sim/fluid_sim/spacing", spacing);
+  ros::param::get("/fluid_sim/fluid_sim/rest_density", rho0);
+  const int lattice = latticeCount("/fluid_sim/fluid_sim");
+  auto region = waitFor<fluid_msgs::RegionState>("/fluid_sim/regions/water", 30.0);
+  ASSERT_TRUE(region) << "no message on /fluid_sim/regions/water";
+  EXPECT_EQ(region->name, "water");
+  EXPECT_EQ(region->header.frame_id, "world");
+  // The tank holds all the water; a few particles sit on its walls or just beyond them (up to
+  // its particle layer, half a spacing out), which a box of the tank's own size missed (2 of 432).
+  EXPECT_EQ(int(region->particles), lattice);
+  EXPECT_NEAR(region->volume, region->particles * spacing * spacing * spacing, 1e-12);
+  EXPECT_NEAR(region->mass, region->volume * rho0, 1e-9);
+  EXPECT_NEAR(region->capacity, 0.325 * 0.175 * 0.325, 1e-12);
+  EXPECT_NEAR(region->fill_fraction, region->volume / region->capacity, 1e-12);
+  // The same inside as a region of the URDF link `tank` (a box link, posed from tf).
+  auto link = waitFor<fluid_msgs::RegionState>("/fluid_sim/regions/link", 10.0);
+  ASSERT_TRUE(link) << "no message on /fluid_sim/regions/link";
+  EXPECT_EQ(link->name, "link");
+  EXPECT_EQ(int(link->particles), lattice);
+  EXPECT_NEAR(link->capacity, 0.3 * 0.15 * 0.3, 1e-9);
+  // Spill below 0.5 m outside both regions: none, the tank holds it all.
+  auto spill = waitFor<fluid_msgs::Spill>("/fluid_sim/spill", 10.0);
+  ASSERT_TRUE(spill) << "no message on /fluid_sim/spill";
+  EXPECT_EQ(spill->header.frame_id, "world");
+  EXPECT_DOUBLE_EQ(spill->below, 0.5);
+  EXPECT_EQ(spill->particles, 0u);
+  EXPECT_EQ(spill->volume, 0.0);
+
+  // Settled (after t = 1.5 s as the wrench test): the floor probe reads rho0 g d, averaged over
+  // twenty messages (the water still sloshes a little); the air probe is dry.
+  std::mutex m;
+  double latest_time = 0;
+  std::vector<fluid_msgs::ProbeArray::ConstPtr> settled;           // probe messages after t = 1.5 s
+  std::map<ros::Time, sensor_msgs::PointCloud2::ConstPtr> clouds;  // the particles, by stamp
+  ros::NodeHandle nh;
+  auto stats_sub =
+      nh.subscribe<fluid_msgs::SolverStats>("/fluid_sim/stats", 10, [&](const fluid_msgs::SolverStats::ConstPtr& s) {
+        std::lock_guard<std::mutex> lock(m);
+        latest_time = s->sim_time;
+      });
+  auto cloud_sub = nh.subscribe<sensor_msgs::PointCloud2>("/fluid_sim/particles", 100,
+                                                          [&](const sensor_msgs::PointCloud2::ConstPtr& c) {
+                                                            std::lock_guard<std::mutex> lock(m);
+                                                            clouds[c->header.stamp] = c;
+                                                          });
+  auto sub =
+      nh.subscribe<fluid_msgs::ProbeArray>("/fluid_sim/probes", 100, [&](const fluid_msgs::ProbeArray::ConstPtr& msg) {
+        std::lock_guard<std::mutex> lock(m);
+        ASSERT_EQ(msg->probes.size(), 2u);
+        EXPECT_EQ(msg->header.frame_id, "world");
+        const fluid_msgs::Probe& floor = msg->probes[0];
+        const fluid_msgs::Probe& air = msg->probes[1];
+        EXPECT_EQ(floor.name, "floor");
+        EXPECT_EQ(air.name, "air");
+        EXPECT_FALSE(air.wet);
+        EXPECT_EQ(air.pressure, 0.0);
+        EXPECT_NEAR(air.position.z, 0.25, 1e-12);
+        EXPECT_TRUE(floor.wet);
+        if (latest_time >= 1.5) settled.push_back(msg);
+      });
+  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(90.0);
+  while (ros::WallTime::now() < deadline)
+  {
+    {
+      std::lock_guard<std::mutex> lock(m);
+      if (settled.size() >= 20) break;
+    }
+    ros::WallDuration(0.05).sleep();
+  }
+  ros::WallDuration(0.2).sleep();  // the clouds of the last frames
+  std::lock_guard<std::mutex> lock(m);
+  ASSERT_GE(settled.size(), 20u) << "too few probe messages after t = 1.5 s";
+
+  // Each probe reading is the SPH interpolation of the particles the node published in the same
+  // frame (same stamp): the cubic kernel of support 2 s, pressure Shepard-normalised.
+  const double h = 2.0 * spacing;  // m
+  const auto kernel = [&](double r) {
+    const double q = r / h, k = 8.0 / (M_PI * h * h * h);
+    return q <= 0.5 ? k * (6.0 * q * q * (q - 1.0) + 1.0) : q < 1.0 ? 2.0 * k * std::pow(1.0 - q, 3) : 0.0;
+  };
+  const double surface = lattice * spacing * spacing * spacing / (0.3 * 0.15);  // m
+  double sum_ratio = 0;
+  int matched = 0;
+  for (const auto& msg : settled)
+  {
+    const fluid_msgs::Probe& probe = msg->probes[0];
+    sum_ratio += probe.pressure / (rho0 * 9.81 * (surface - probe.position.z));
+    const auto it = clouds.find(msg->header.stamp);
+    if (it == clouds.end()) continue;
+    const sensor_msgs::PointCloud2& cloud = *it->second;
+    double w_sum = 0, pw_sum = 0;
+    for (std::size_t i = 0; i < cloud.width; ++i)
+    {
+      const double dx = field(cloud, i, "x") - probe.position.x, dy = field(cloud, i, "y") - probe.position.y,
+                   dz = field(cloud, i, "z") - probe.position.z;
+      const double w = kernel(std::sqrt(dx * dx + dy * dy + dz * dz));
+      w_sum += w;
+      pw_sum += w * field(cloud, i, "pressure");
+    }
+    ASSERT_GT(w_sum, 0.0);
+    EXPECT_NEAR(probe.pressure, pw_sum / w_sum, 1e-3 * std::abs(pw_sum / w_sum) + 1e-3);
+    EXPECT_NEAR(probe.fluid_support, w_sum * spacing * spacing * spacing, 1e-4);
+    ++matched;
+  }
+  EXPECT_GE(matched, 10) << "probe messages without the particle cloud of their frame";
+  // rho0 g d as a check of magnitude only: the same tank run headless (CFL steps up to 4 ms, 2.5
+  // cm) gives instantaneous probe pressures of 0.84-1.29 rho0 g d at this point after 1.5 s (150
+  // frames, mean 1.039), and this test's means over 20-24 messages were 1.031-1.113 in eight
+  // runs; the node's own pressures are that noisy (the probe matches them above). Accuracy is
+  // the core test's (a 2 cm column, fixed 1 ms steps, averaged: 2 %).
+  EXPECT_NEAR(sum_ratio / settled.size(), 1.0, 0.25);
+  std::printf("tank: probe `floor' reads %.4f of rho0 g d over %zu messages, %d checked against their cloud\n",
+              sum_ratio / settled.size(), settled.size(), matched);
 }
 
 TEST(Tank, DynamicReconfigureStartsFromTheSceneAndChangesTheSolver)

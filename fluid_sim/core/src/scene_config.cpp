@@ -1,6 +1,7 @@
 #include "fluid_sim/core/scene_config.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <sstream>
 
@@ -122,6 +123,66 @@ void requireParticles(const FluidBlockConfig& block, const std::string& key)
   }
 }
 
+/// A ROS base name: an ASCII letter, then ASCII letters, digits or '_' (instrument names become
+/// topic names and CSV fields as they are; the node's sanitiser is for names it cannot choose).
+bool isRosBaseName(const std::string& name)
+{
+  if (name.empty() || !std::isalpha(static_cast<unsigned char>(name[0]))) return false;
+  for (char c : name)
+  {
+    const auto u = static_cast<unsigned char>(c);
+    if (u >= 0x80 || !(std::isalnum(u) || c == '_')) return false;
+  }
+  return true;
+}
+
+/// An instrument's name: a ROS base name, not used by an earlier entry of the same list.
+template <class Config>
+void requireInstrumentName(const std::vector<Config>& list, std::size_t i, const std::string& key)
+{
+  const std::string& name = list[i].name;
+  if (name.empty()) throw ConfigError(key + ".name", "must not be empty");
+  if (!isRosBaseName(name))
+    throw ConfigError(key + ".name", "'" + name +
+                                         "' is no valid ROS name (an ASCII letter, then letters, digits or '_'): "
+                                         "it becomes a topic name");
+  for (std::size_t j = 0; j < i; ++j)
+    if (list[j].name == name) throw ConfigError(key + ".name", "duplicate name '" + name + "'");
+}
+
+void validateInstruments(const SceneConfig& s)
+{
+  for (std::size_t i = 0; i < s.regions.size(); ++i)
+  {
+    const RegionConfig& r = s.regions[i];
+    const std::string key = "regions[" + std::to_string(i) + "]";
+    requireInstrumentName(s.regions, i, key);
+    switch (r.shape)
+    {
+      case RegionShape::Box:
+        requireBox(r.box, key + ".box");
+        requireFinite(r.pose.translation, key + ".pose.xyz");
+        if (!r.pose.rotation.coeffs().allFinite()) throw ConfigError(key + ".pose.rpy", "must be finite");
+        break;
+      case RegionShape::Sphere:
+        requireFinite(r.sphere.center, key + ".sphere.center");
+        requirePositive(r.sphere.radius, key + ".sphere.radius");
+        break;
+      case RegionShape::Body:
+        if (r.body.empty()) throw ConfigError(key + ".body", "must name a boundary body");
+        break;
+    }
+  }
+  for (std::size_t i = 0; i < s.probes.size(); ++i)
+  {
+    const std::string key = "probes[" + std::to_string(i) + "]";
+    requireInstrumentName(s.probes, i, key);
+    requireFinite(s.probes[i].position, key + ".position");
+  }
+  if (s.spill.enabled && !std::isfinite(s.spill.below))
+    throw ConfigError("spill.below", "must be finite, got " + str(s.spill.below));
+}
+
 bool boxInside(const AxisBox& inner, const AxisBox& outer)
 {
   return (inner.min.array() >= outer.min.array()).all() && (inner.max.array() <= outer.max.array()).all();
@@ -215,6 +276,7 @@ void validate(const SceneConfig& s)
   requireNonNegative(s.duration, "duration");
   if (s.max_boundary_particles < 1) throw ConfigError("max_boundary_particles", "must be >= 1");
   if (s.max_fluid_particles < 1) throw ConfigError("max_fluid_particles", "must be >= 1");
+  validateInstruments(s);
 
   if (s.fluid.empty()) throw ConfigError("fluid", "the scene has no fluid block");
   for (std::size_t i = 0; i < s.fluid.size(); ++i)

@@ -126,6 +126,12 @@ std::string toJson(const RunSummary& s)
                {"settled", s.fill.settled},
                {"initial_density_error", s.fill.initial_density_error},
                {"final_density_error", s.fill.final_density_error}};
+  if (s.spill)
+    j["spill"] = {{"below_m", s.spill->below},
+                  {"particles", s.spill->particles},
+                  {"volume_m3", s.spill->volume},
+                  {"max_particles", s.spill->max_particles},
+                  {"max_volume_m3", s.spill->max_volume}};
   return j.dump(2) + "\n";
 }
 

@@ -415,6 +415,75 @@ void checkBudget(const Entry& e, const BoundaryConfig& b, const LoadContext& ctx
                           lineOf(e.node));
 }
 
+/// One entry of `regions`: {name, box: {min, max}, pose: {xyz, rpy}}, {name, sphere: {center,
+/// radius}} or {name, body: NAME}. A name is required: it is the region's topic and its rows'
+/// label.
+RegionConfig readRegion(const Entry& e)
+{
+  MapReader r(e);
+  const std::optional<Entry> name = r.get("name"), pose = r.get("pose");
+  std::vector<Entry> shapes;
+  for (const char* key : {"box", "sphere", "body"})
+    if (auto shape = r.get(key)) shapes.push_back(*shape);
+  r.finish();  // a misspelt key first, with the key it may mean
+  const auto shapeName = [](const Entry& shape) { return shape.key.substr(shape.key.rfind('.') + 1); };
+  if (shapes.size() != 1)
+    throw ConfigError(e.key, (shapes.empty() ? std::string("needs a shape: box, sphere or body")
+                                             : "has two shapes, '" + shapeName(shapes[0]) + "' and '" +
+                                                   shapeName(shapes[1]) + "'; give exactly one") +
+                                 lineOf(e.node));
+  RegionConfig region;
+  readInto(name ? *name : r.require("name"), region.name);
+  const Entry& shape = shapes.front();
+  const std::string shape_name = shapeName(shape);
+  if (pose && shape_name != "box")
+    throw ConfigError(pose->key,
+                      "only a box region has a pose (a sphere is placed by its center, a body region "
+                      "follows its body)" +
+                          lineOf(pose->node));
+  if (shape_name == "box")
+  {
+    region.shape = RegionShape::Box;
+    region.box = readBox(shape);
+    if (pose) region.pose = readPose(*pose);
+  }
+  else if (shape_name == "sphere")
+  {
+    region.shape = RegionShape::Sphere;
+    region.sphere = readSphere(shape);
+  }
+  else
+  {
+    region.shape = RegionShape::Body;
+    readInto(shape, region.body);
+  }
+  return region;
+}
+
+/// One entry of `probes`: {name, position: [x, y, z]}.
+ProbeConfig readProbe(const Entry& e)
+{
+  MapReader r(e);
+  const std::optional<Entry> name = r.get("name"), position = r.get("position");
+  r.finish();
+  ProbeConfig probe;
+  readInto(name ? *name : r.require("name"), probe.name);
+  probe.position = readVec3(position ? *position : r.require("position"));
+  return probe;
+}
+
+/// `spill: {below: Z}`.
+SpillConfig readSpill(const Entry& e)
+{
+  MapReader r(e);
+  const std::optional<Entry> below = r.get("below");
+  r.finish();
+  SpillConfig spill;
+  spill.enabled = true;
+  readInto(below ? *below : r.require("below"), spill.below);
+  return spill;
+}
+
 /// urdf: {file, links, joint_positions}: one body per selected link, each with the entry's common
 /// keys (`common`: inside, pose of the root link, motion, sample_spacing, external, offset).
 std::vector<BoundaryConfig> readUrdf(const Entry& e, const BoundaryConfig& common, double finest_spacing,
@@ -634,6 +703,9 @@ SceneConfig readScene(const YAML::Node& root, LoadContext& ctx)
       for (auto& b : readBoundary(item, s.boundaries.size(), ctx)) s.boundaries.push_back(std::move(b));
     });
   if (auto e = r.get("output")) s.output = readOutput(*e);
+  if (auto e = r.get("regions")) forEachItem(*e, [&](const Entry& item) { s.regions.push_back(readRegion(item)); });
+  if (auto e = r.get("probes")) forEachItem(*e, [&](const Entry& item) { s.probes.push_back(readProbe(item)); });
+  if (auto e = r.get("spill")) s.spill = readSpill(*e);
   r.finish();
   return s;
 }

@@ -98,6 +98,39 @@ fluid_msgs::ContactWrench toContactWrench(const BodyInfo& body, const Vec3d& for
   return cw;
 }
 
+fluid_msgs::RegionState toRegionState(const RegionMeasurement& m)
+{
+  fluid_msgs::RegionState r;
+  r.name = m.name;
+  r.volume = m.volume;
+  r.mass = m.mass;
+  r.capacity = m.capacity;
+  r.fill_fraction = m.fill_fraction;
+  r.mean_velocity.x = m.mean_velocity.x();
+  r.mean_velocity.y = m.mean_velocity.y();
+  r.mean_velocity.z = m.mean_velocity.z();
+  r.particles = static_cast<std::uint32_t>(m.particles);
+  return r;
+}
+
+fluid_msgs::Probe toProbe(const ProbeMeasurement& m)
+{
+  fluid_msgs::Probe p;
+  p.name = m.name;
+  p.position.x = m.position.x();
+  p.position.y = m.position.y();
+  p.position.z = m.position.z();
+  p.wet = m.wet;
+  p.pressure = m.pressure;
+  p.density = m.density;
+  p.velocity.x = m.velocity.x();
+  p.velocity.y = m.velocity.y();
+  p.velocity.z = m.velocity.z();
+  p.fluid_support = m.fluid_support;
+  p.wall_support = m.wall_support;
+  return p;
+}
+
 Pose toPose(const geometry_msgs::Transform& transform)
 {
   const geometry_msgs::Vector3& t = transform.translation;

@@ -114,6 +114,12 @@ void Publishers::advertise(ros::NodeHandle& nh, const std::vector<BodyTopic>& bo
   bodies_ = bodies;
   for (const BodyTopic& b : bodies_)
     pub_link_wrench_.push_back(nh.advertise<geometry_msgs::WrenchStamped>(b.topic, 10));
+  // Instrument names are ROS base names (validate() refuses others), so they are topic names as
+  // they are.
+  for (const RegionConfig& r : sim.scene().regions)
+    pub_regions_.push_back(nh.advertise<fluid_msgs::RegionState>("regions/" + r.name, 10));
+  if (!sim.scene().probes.empty()) pub_probes_ = nh.advertise<fluid_msgs::ProbeArray>("probes", 10);
+  if (sim.scene().spill.enabled) pub_spill_ = nh.advertise<fluid_msgs::Spill>("spill", 10);
 
   // Scene bodies are no tf frames of anyone else's: their wrenches are stamped in frames the
   // node publishes, children of the fixed frame at the bodies' poses.
@@ -227,6 +233,9 @@ void Publishers::run()
       ws.wrench = f.wrenches.wrenches[k].wrench;
       pub_link_wrench_[k].publish(ws);
     }
+    for (std::size_t k = 0; k < f.regions.size() && k < pub_regions_.size(); ++k) pub_regions_[k].publish(f.regions[k]);
+    if (pub_probes_ && !f.probes.probes.empty()) pub_probes_.publish(f.probes);
+    if (pub_spill_ && f.spill_valid) pub_spill_.publish(f.spill);
     pub_stats_.publish(f.stats);
   }
 }

@@ -68,7 +68,10 @@ void SolverLoop::build(const std::map<std::string, Pose>& poses)
   try
   {
     auto next = std::make_unique<Simulation>(scene);
+    // The instruments (a region's body may be a URDF link): before anything is replaced.
+    auto instruments = std::make_unique<Measurements>(*next);
     sim_ = std::move(next);
+    measurements_ = instruments->empty() ? nullptr : std::move(instruments);
   }
   catch (const ConfigError& e)
   {
@@ -560,6 +563,31 @@ void SolverLoop::publishFrame(const StepReport& rep, double paced_rtf)
   f.wrenches.header.stamp = f.stamp;
   f.wrenches.header.frame_id = opt_.fixed_frame;
   wrench_means_.take(*sim_, f.wrenches.wrenches);
+  f.regions.clear();
+  f.probes.probes.clear();
+  f.spill_valid = false;
+  if (measurements_)
+  {
+    const MeasurementReport m = measurements_->evaluate(*sim_);
+    for (const RegionMeasurement& r : m.regions)
+    {
+      f.regions.push_back(toRegionState(r));
+      f.regions.back().header.stamp = f.stamp;
+      f.regions.back().header.frame_id = opt_.fixed_frame;
+    }
+    f.probes.header.stamp = f.stamp;
+    f.probes.header.frame_id = opt_.fixed_frame;
+    for (const ProbeMeasurement& p : m.probes) f.probes.probes.push_back(toProbe(p));
+    f.spill_valid = m.spill.enabled;
+    if (f.spill_valid)
+    {
+      f.spill.header = f.probes.header;
+      f.spill.below = m.spill.below;
+      f.spill.particles = static_cast<std::uint32_t>(m.spill.particles);
+      f.spill.volume = m.spill.volume;
+      f.spill.mass = m.spill.mass;
+    }
+  }
   f.stats = toSolverStats(rep, *sim_, rtf_measured_, paused_, last_status_);
   f.stats.header.stamp = f.stamp;
   f.stats.header.frame_id = opt_.fixed_frame;

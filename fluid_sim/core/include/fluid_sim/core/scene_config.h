@@ -247,6 +247,46 @@ struct OutputConfig
   double frame_interval = 0.01;  // s between PLY frames; 0 = none   key: output.frame_interval
 };
 
+/// Instruments (README, Instruments). They read the fluid after a step and never act on
+/// it: a scene without them runs exactly as before.
+enum class RegionShape
+{
+  Box,     // key: box {min, max} (with an optional pose)
+  Sphere,  // key: sphere {center, radius}
+  Body     // key: body NAME: the inside of a boundary body or URDF link, following its pose
+};
+
+/// A named volume the water in it is measured in (key regions[i]).
+struct RegionConfig
+{
+  // key: name. A ROS base name (a letter, then letters, digits or '_'): the node publishes the
+  // region on regions/<name> and the runner writes it as is into regions.csv.
+  std::string name;
+  RegionShape shape = RegionShape::Box;
+  AxisBox box;         // m, in the region's frame                  key: box {min, max}
+  Pose pose;           // region frame -> world (a box only)        key: pose {xyz, rpy}
+  SphereShape sphere;  // m, world                                  key: sphere {center, radius}
+  // key: body. A boundary body's name (a URDF link's is the link name). Its inside: a primitive's
+  // solid, a closed mesh's enclosed volume, an open mesh (a cup) closed over each opening of its
+  // border (the rim), so the volume it holds up to its rim. Checked against the bodies when the
+  // instruments are built (the node adds the URDF links after the scene is read).
+  std::string body;
+};
+
+/// A point the fluid's pressure, velocity and density are interpolated at (key probes[i]).
+struct ProbeConfig
+{
+  std::string name;                // key: name, a ROS base name like a region's
+  Vec3d position = Vec3d::Zero();  // m, world                       key: position
+};
+
+/// Water outside every region and below a height: spilt (key spill).
+struct SpillConfig
+{
+  bool enabled = false;  // the scene has a spill key
+  double below = 0.0;    // m, world z                             key: spill.below
+};
+
 struct SceneConfig
 {
   std::string source = "<scene>";                     // file name, for messages
@@ -262,7 +302,10 @@ struct SceneConfig
   FillConfig fill;                         // key: fill
   std::vector<BoundaryConfig> boundaries;  // key: boundaries
   OutputConfig output;
-  double duration = 1.0;  // s, default run length for the runner     key: duration
+  std::vector<RegionConfig> regions;  // key: regions
+  std::vector<ProbeConfig> probes;    // key: probes
+  SpillConfig spill;                  // key: spill
+  double duration = 1.0;              // s, default run length for the runner     key: duration
   /// Largest number of boundary particles one body may be sampled into; validate() refuses a
   /// body whose estimate (from its surface area and sample spacing) exceeds it, before sampling.
   std::size_t max_boundary_particles = 2000000;  //                    key: max_boundary_particles

@@ -3,6 +3,7 @@
 // RunStatistics accumulates the per-step figures; RunSummary is the plain data written out.
 
 #include <cstddef>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -25,6 +26,17 @@ struct BodySummary
   std::string name;
   Wrench last;  // the last step          (JSON: force, torque)
   Wrench mean;  // time average over the last tenth of the simulated time (JSON: mean_force, mean_torque)
+};
+
+/// Spill over a run (scene key spill): fluid outside every region and below a height, as the
+/// runner measured it at its frame times.
+struct SpillSummary
+{
+  double below = 0.0;             // m, world z
+  std::size_t particles = 0;      // at the last measurement
+  double volume = 0.0;            // m^3, at the last measurement
+  std::size_t max_particles = 0;  // the most at any measurement
+  double max_volume = 0.0;        // m^3
 };
 
 struct RunSummary
@@ -54,6 +66,7 @@ struct RunSummary
   double max_density_error = 0.0;           // relative, max over steps of StepReport::density_error
   std::vector<BodySummary> bodies;
   FillReport fill;  // the fill before t = 0 (JSON: fill {trimmed, relaxed, relax_steps, settled, ...})
+  std::optional<SpillSummary> spill;  // only for a scene with a spill key (JSON: spill, else absent)
 
   /// Simulated time per wall time over the whole run (0 before any time has passed).
   double realTimeFactor() const;
@@ -100,7 +113,8 @@ private:
 /// removed_total}, boundary_particles, steps, simulated_time_s, wall_time_s, step_time_s,
 /// ms_per_step, real_time_factor, mean_divergence_iterations, mean_density_iterations,
 /// mean_density_error, max_density_error, bodies [{name, force [N], torque [N m], mean_force,
-/// mean_torque}] (world frame, torque about the body origin).
+/// mean_torque}] (world frame, torque about the body origin), and for a scene with a spill key
+/// spill {below_m, particles, volume_m3, max_particles, max_volume_m3}.
 std::string toJson(const RunSummary& summary);
 
 /// Writes toJson(summary) to `path` (through a temporary file and a rename). Throws

@@ -13,8 +13,11 @@
 #include <sensor_msgs/PointCloud2.h>
 
 #include "fluid_msgs/ContactWrench.h"
+#include "fluid_msgs/Probe.h"
+#include "fluid_msgs/RegionState.h"
 #include "fluid_msgs/SolverStats.h"
 #include "fluid_sim/FluidSimConfig.h"
+#include "fluid_sim/core/measurements.h"
 #include "fluid_sim/core/scene_config.h"
 #include "fluid_sim/core/simulation.h"
 #include "fluid_sim/core/types.h"
@@ -58,6 +61,12 @@ geometry_msgs::Wrench toWrench(const Vec3d& force, const Vec3d& torque);
 /// `body`.
 fluid_msgs::ContactWrench toContactWrench(const BodyInfo& body, const Vec3d& force, const Vec3d& torque,
                                           double max_pressure);
+
+/// A region's measurement (scene key regions) as a message; the header is the caller's.
+fluid_msgs::RegionState toRegionState(const RegionMeasurement& region);
+
+/// A probe's measurement (scene key probes) as a message.
+fluid_msgs::Probe toProbe(const ProbeMeasurement& probe);
 
 /// A tf transform (translation in m) as a pose, its quaternion normalised.
 Pose toPose(const geometry_msgs::Transform& transform);

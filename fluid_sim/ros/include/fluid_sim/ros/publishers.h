@@ -1,8 +1,8 @@
 #pragma once
 // Publishers of the node's topics (particles, boundary_particles, contact_wrenches,
-// wrench/<body>, stats) and of the scene bodies' tf frames, and their thread. The solver thread fills a Frame between
-// steps and hands it over; the publisher thread turns it into messages (through the converter, messages.h). A slow
-// publisher drops frames; it never blocks the solver.
+// wrench/<body>, stats, and the scene's instruments: regions/<region>, probes) and of the scene bodies' tf frames, and
+// their thread. The solver thread fills a Frame between steps and hands it over; the publisher thread turns it into
+// messages (through the converter, messages.h). A slow publisher drops frames; it never blocks the solver.
 
 #include <atomic>
 #include <condition_variable>
@@ -21,7 +21,10 @@
 #include <tf2_ros/transform_broadcaster.h>
 
 #include "fluid_msgs/ContactWrenchArray.h"
+#include "fluid_msgs/ProbeArray.h"
+#include "fluid_msgs/RegionState.h"
 #include "fluid_msgs/SolverStats.h"
+#include "fluid_msgs/Spill.h"
 #include "fluid_sim/core/simulation.h"
 #include "fluid_sim/ros/messages.h"
 #include "fluid_sim/ros/node_parameters.h"
@@ -43,6 +46,12 @@ struct Frame
   fluid_msgs::ContactWrenchArray wrenches;
   std::vector<Pose> body_poses;  // body -> fixed frame (m), per body (moving scene bodies go on tf)
   fluid_msgs::SolverStats stats;
+  // The instruments (scene keys regions, probes), measured when the frame was taken; empty for a
+  // scene without them.
+  std::vector<fluid_msgs::RegionState> regions;  // per region, in the scene's order
+  fluid_msgs::ProbeArray probes;
+  bool spill_valid = false;  // the scene has a spill key
+  fluid_msgs::Spill spill;
 };
 
 /// The wrenches published: per body, the mean over a window of simulated time (body frame). One
@@ -122,9 +131,9 @@ public:
   }
 
   /// Advertises the topics in `nh` (the node's namespace, so that they are remapped as users
-  /// expect), with one wrench topic per body, and publishes the frames of the scene bodies that
-  /// do not move on /tf_static (their poses in `sim`). Moving scene bodies go on /tf with each
-  /// frame.
+  /// expect), with one wrench topic per body, one regions/<name> topic per region of the scene
+  /// and, for a scene with probes or a spill key, the probes and spill topics, and publishes the frames of the scene
+  /// bodies that do not move on /tf_static (their poses in `sim`). Moving scene bodies go on /tf with each frame.
   void advertise(ros::NodeHandle& nh, const std::vector<BodyTopic>& bodies, const Simulation& sim);
 
   /// Most points in the particles cloud (0 = all); may change while running.
@@ -163,6 +172,9 @@ private:
   std::atomic<std::size_t> max_points_{0};
   ros::Publisher pub_particles_, pub_boundary_, pub_wrenches_, pub_stats_;
   std::vector<ros::Publisher> pub_link_wrench_;  // per body, wrench/<name>
+  std::vector<ros::Publisher> pub_regions_;      // per region, regions/<name>
+  ros::Publisher pub_probes_;                    // probes, for a scene with probes
+  ros::Publisher pub_spill_;                     // spill, for a scene with a spill key
   std::vector<BodyTopic> bodies_;                // per body: topic and wrench frame
   std::unique_ptr<tf2_ros::TransformBroadcaster> tf_;
   std::unique_ptr<tf2_ros::StaticTransformBroadcaster> tf_static_;

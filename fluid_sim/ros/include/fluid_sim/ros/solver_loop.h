@@ -22,6 +22,7 @@
 #include <ros/time.h>
 
 #include "fluid_sim/FluidSimConfig.h"
+#include "fluid_sim/core/measurements.h"
 #include "fluid_sim/core/simulation.h"
 #include "fluid_sim/ros/link_poses.h"
 #include "fluid_sim/ros/node_parameters.h"
@@ -181,6 +182,8 @@ private:
   bool boundary_dirty_ = true;                                    // the boundary cloud must be (re)published
   std::vector<std::pair<std::size_t, std::size_t>> body_ranges_;  // boundary particles of each body
   WrenchMeans wrench_means_;
+  // The scene's instruments, measured once per published frame; null for a scene without any.
+  std::unique_ptr<Measurements> measurements_;
   StepReport last_report_;
   // Written by the solver thread under cmd_mutex_ (after each step, on reset), read by the
   // step service under it; the solver thread reads them without the lock.
