@@ -193,13 +193,26 @@ MeshFile readMeshFile(const std::string& path, const Vec3d& scale)
   // aiProcess_ValidateDataStructure: a face index beyond its mesh's vertices (an ascii PLY
   // that says "3 0 1 7" with three vertices) fails the import instead of being read out of
   // bounds; the error names the file.
-  const aiScene* scene =
-      importer.ReadFile(path, aiProcess_ValidateDataStructure | aiProcess_Triangulate | aiProcess_SortByPType);
-  if (!scene || !scene->mRootNode || (scene->mFlags & AI_SCENE_FLAGS_INCOMPLETE))
-  {
+  const auto refuse = [&] {
     const std::string reason = importer.GetErrorString();
     throw ConfigError(path, "cannot read the mesh: " + (reason.empty() ? std::string("incomplete scene") : reason));
+  };
+  const aiScene* scene = importer.ReadFile(path, aiProcess_ValidateDataStructure);
+  if (!scene || !scene->mRootNode || (scene->mFlags & AI_SCENE_FLAGS_INCOMPLETE)) refuse();
+  // assimp's triangulation asserts on a face without indices, and Debian's assimp keeps its
+  // asserts: abort(), the node gone without a word (fuzz_mesh_ply: a PLY whose vertex count is
+  // short makes the reader take vertex lines for faces, "0 1 0" a face of none). Such a face is
+  // refused here, before the post-processing ReadFile would otherwise run in the same call.
+  for (unsigned m = 0; m < scene->mNumMeshes; ++m)
+  {
+    const aiMesh& mesh = *scene->mMeshes[m];
+    for (unsigned f = 0; f < mesh.mNumFaces; ++f)
+      if (mesh.mFaces[f].mNumIndices == 0)
+        throw ConfigError(path, "mesh " + std::to_string(m) + " (" + mesh.mName.C_Str() + "), face " +
+                                    std::to_string(f) + ": a face without vertex indices");
   }
+  scene = importer.ApplyPostProcessing(aiProcess_Triangulate | aiProcess_SortByPType);
+  if (!scene || !scene->mRootNode) refuse();
 
   Soup soup;
   collect(*scene, *scene->mRootNode, Eigen::Matrix4d::Identity(), path, soup);
