@@ -213,8 +213,7 @@ Measurements::Measurements(const Simulation& sim)
         // particles at the geometric walls. Counted up to the layer, as the sampler grows the
         // shape (not for open meshes or offset none, whose layer is on the surface).
         const double grow = 0.5 * scene.spacing;  // m
-        if (shape.inside && was_closed)
-          switch (shape.type)
+        if (shape.inside && was_closed) switch (shape.type)
           {
             case ShapeType::Box:
               shape.box.min -= Vec3d::Constant(grow);
