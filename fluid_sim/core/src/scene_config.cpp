@@ -5,6 +5,8 @@
 #include <cmath>
 #include <sstream>
 
+#include <Eigen/Eigenvalues>
+
 #include "fluid_sim/core/boundary_sampling.h"
 
 namespace fluid_sim
@@ -179,8 +181,48 @@ void validateInstruments(const SceneConfig& s)
     requireInstrumentName(s.probes, i, key);
     requireFinite(s.probes[i].position, key + ".position");
   }
+  if (!std::isfinite(s.contacts.friction) || s.contacts.friction < 0.0)
+    throw ConfigError("contacts.friction", "must be finite and >= 0, got " + str(s.contacts.friction));
   if (s.spill.enabled && !std::isfinite(s.spill.below))
     throw ConfigError("spill.below", "must be finite, got " + str(s.spill.below));
+}
+
+/// A free body's `dynamic` entry (key: its dotted scene key).
+void validateDynamic(const BoundaryConfig& b, const std::string& key)
+{
+  const DynamicConfig& d = b.dynamic;
+  if (b.inside)
+    throw ConfigError(key, "'" + b.name + "' is a container (inside: true); a container cannot be a free body");
+  if (b.externally_posed)
+    throw ConfigError(key, "'" + b.name + "' is posed from outside (external); it cannot also be free");
+  if (!b.motion.isStatic()) throw ConfigError(key, "'" + b.name + "' has a scripted motion; it cannot also be free");
+  if (!std::isfinite(d.density) || !std::isfinite(d.mass) || d.density < 0.0 || d.mass < 0.0)
+    throw ConfigError(key, "density and mass must be finite and positive, got density " + str(d.density) +
+                               " kg/m^3, mass " + str(d.mass) + " kg");
+  if ((d.density > 0.0) == (d.mass > 0.0))
+    throw ConfigError(key, "give exactly one of density (kg/m^3) and mass (kg) for '" + b.name + "'");
+  if (b.type == ShapeType::Mesh && !b.mesh_closed && (!(d.mass > 0.0) || !d.inertia))
+    throw ConfigError(key,
+                      "'" + b.name + "' is an open mesh, which has no volume: give mass (kg) and inertia (kg m^2)");
+  if (d.inertia)
+  {
+    const std::array<double, 6>& i = *d.inertia;
+    Mat3d m;
+    m << i[0], i[3], i[4], i[3], i[1], i[5], i[4], i[5], i[2];
+    if (!m.allFinite()) throw ConfigError(key + ".inertia", "must be finite");
+    // A physical inertia is positive definite (and its principal moments obey the triangle
+    // inequality, which follows for any real mass distribution).
+    const Eigen::SelfAdjointEigenSolver<Mat3d> eig(m);
+    const Vec3d l = eig.eigenvalues();  // ascending
+    if (!(l(0) > 0.0) || l(0) + l(1) < l(2) * (1.0 - 1e-9))
+      throw ConfigError(key + ".inertia", "is not a physical inertia (principal moments " + str(l(0)) + ", " +
+                                              str(l(1)) + ", " + str(l(2)) +
+                                              " kg m^2: each must be positive and at most the sum of "
+                                              "the other two)");
+  }
+  if (d.center_of_mass) requireFinite(*d.center_of_mass, key + ".center_of_mass");
+  requireFinite(d.linear_velocity, key + ".linear_velocity");
+  requireFinite(d.angular_velocity, key + ".angular_velocity");
 }
 
 bool boxInside(const AxisBox& inner, const AxisBox& outer)
@@ -191,7 +233,8 @@ bool boxInside(const AxisBox& inner, const AxisBox& outer)
 
 bool canMove(const BoundaryConfig& b)
 {
-  return b.externally_posed || b.motion.linear_velocity != Vec3d::Zero() || b.motion.angular_velocity != Vec3d::Zero();
+  return b.externally_posed || b.dynamic.enabled || b.motion.linear_velocity != Vec3d::Zero() ||
+         b.motion.angular_velocity != Vec3d::Zero();
 }
 
 double sampleSpacing(const BoundaryConfig& b, double spacing)
@@ -360,6 +403,7 @@ void validate(const SceneConfig& s)
     requireFinite(b.motion.linear_velocity, key + ".motion.linear_velocity");
     requireNonNegative(b.motion.start, key + ".motion.start");
     requireNonNegative(b.motion.ramp, key + ".motion.ramp");
+    if (b.dynamic.enabled) validateDynamic(b, key + ".dynamic");
     if (b.sample_spacing != kAutoSampleSpacing) requireNonNegative(b.sample_spacing, key + ".sample_spacing");
     if (b.sample_spacing > s.spacing)
       throw ConfigError(key + ".sample_spacing", "must not exceed the scene spacing " + str(s.spacing));

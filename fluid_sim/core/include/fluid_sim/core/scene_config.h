@@ -101,6 +101,23 @@ enum class SurfaceOffset
   None   // on the surface itself (thin-walled open shapes: a cup, a paddle)
 };
 
+/// A free rigid body (key `dynamic`): moved by gravity, the fluid's force and torque (the wall
+/// force the wrenches report, Eq. A12) and contacts with other bodies (docs/method.md, Free
+/// bodies). Mass, centre of mass and inertia follow from the closed shape and a uniform density
+/// unless given; an open mesh has no volume and needs `mass` and `inertia`.
+struct DynamicConfig
+{
+  bool enabled = false;  // the key is present
+  double density = 0.0;  // kg/m^3, uniform                          key: dynamic.density
+  double mass = 0.0;     // kg; exactly one of density and mass      key: dynamic.mass
+  // kg m^2 about the centre of mass, body axes: ixx, iyy, izz, ixy, ixz, iyz (the products as
+  // URDF writes them, I_xy = -sum m x y).                               key: dynamic.inertia
+  std::optional<std::array<double, 6>> inertia;
+  std::optional<Vec3d> center_of_mass;     // m, body frame              key: dynamic.center_of_mass
+  Vec3d linear_velocity = Vec3d::Zero();   // m/s, world, of the centre of mass at t = 0
+  Vec3d angular_velocity = Vec3d::Zero();  // rad/s, world, at t = 0
+};
+
 struct BoundaryConfig
 {
   std::string name;  // key: name (default: shape type and index)
@@ -118,6 +135,7 @@ struct BoundaryConfig
   // m, boundary particle spacing; 0 (the default): the scene spacing; kAutoSampleSpacing (key
   // value `auto`): see sampleSpacing(); may be finer, never coarser.          key: sample_spacing
   double sample_spacing = 0.0;
+  DynamicConfig dynamic;  // key: dynamic (a free body)
 };
 
 /// `sample_spacing: auto`.
@@ -287,6 +305,12 @@ struct SpillConfig
   double below = 0.0;    // m, world z                             key: spill.below
 };
 
+/// Contacts between bodies, where a free body is involved (docs/method.md, Free bodies).
+struct ContactConfig
+{
+  double friction = 0.5;  // Coulomb coefficient, unit-less, >= 0     key: contacts.friction
+};
+
 struct SceneConfig
 {
   std::string source = "<scene>";                     // file name, for messages
@@ -305,6 +329,7 @@ struct SceneConfig
   std::vector<RegionConfig> regions;  // key: regions
   std::vector<ProbeConfig> probes;    // key: probes
   SpillConfig spill;                  // key: spill
+  ContactConfig contacts;             // key: contacts
   double duration = 1.0;              // s, default run length for the runner     key: duration
   /// Largest number of boundary particles one body may be sampled into; validate() refuses a
   /// body whose estimate (from its surface area and sample spacing) exceeds it, before sampling.

@@ -99,6 +99,15 @@ struct BodyInfo
   Vec3d torque_body;                  // N m, the same torque in the body frame
   std::size_t contact_particles = 0;  // boundary particles with a fluid neighbour
   double max_pressure = 0.0;          // Pa, largest boundary pressure used (density solve)
+  // Free bodies (key `dynamic`); for the others free is false, mass 0 and the centre of mass the
+  // body origin.
+  bool free = false;
+  double mass = 0.0;                     // kg
+  Mat3d inertia = Mat3d::Zero();         // kg m^2, about the centre of mass, body axes
+  Vec3d center_of_mass = Vec3d::Zero();  // m, world
+  Vec3d com_velocity = Vec3d::Zero();    // m/s, world, of the centre of mass
+  Vec3d torque_com = Vec3d::Zero();      // N m, world, the fluid's torque about the centre of mass
+  Vec3d contact_force = Vec3d::Zero();   // N, world, from contacts with other bodies in the last step
 };
 
 class Simulation
