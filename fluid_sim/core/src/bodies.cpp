@@ -7,6 +7,7 @@
 
 #include "fluid_sim/core/boundary_sampling.h"
 #include "fluid_sim/core/parallel.h"
+#include "fluid_sim/core/rigid_dynamics.h"
 
 namespace fluid_sim
 {
@@ -71,7 +72,20 @@ BodySet::BodySet(const SceneConfig& scene)
     body.offset = offset;
     body.initial_pose = cfg.pose;
     body.pose = cfg.pose;
-    body.moving = cfg.externally_posed || !cfg.motion.isStatic();
+    body.moving = cfg.externally_posed || !cfg.motion.isStatic() || cfg.dynamic.enabled;
+    if (cfg.dynamic.enabled)
+    {
+      // Mass properties of the shape as given, before sampling (rigid_dynamics.cpp).
+      const MassProperties mp =
+          massProperties(body.config, "boundaries[" + std::to_string(bodies_.size()) + "].dynamic");
+      body.free = true;
+      body.mass = mp.mass;
+      body.com_local = mp.com;
+      body.inertia_local = mp.inertia;
+      body.v_com = cfg.dynamic.linear_velocity;
+      body.omega = cfg.dynamic.angular_velocity;
+      has_free_ = true;
+    }
     offset += body.local.size();
     bodies_.push_back(std::move(body));
   }
@@ -98,7 +112,7 @@ BodySet::BodySet(const SceneConfig& scene)
 void BodySet::poseMoving(double time)
 {
   for (Body& body : bodies_)
-    if (body.moving) pose(body, time, false);
+    if (body.moving && !body.free) pose(body, time, false);  // free bodies are written by stepFree()
 }
 
 void BodySet::setPendingPose(std::size_t index, const Pose& pose, bool jump)
@@ -170,6 +184,15 @@ void BodySet::pose(Body& body, double time, bool force_write)
       body.pose_pending = false;
       if (!unchanged) force_write = true;  // a body at rest given its own pose again: nothing to rewrite
     }
+  }
+  else if (body.free)
+  {
+    // The pose was integrated by stepFree(); the origin's velocity and acceleration follow from
+    // the centre of mass's (v_o = v_c + omega x (o - c), a likewise with alpha and the
+    // centripetal term).
+    const Vec3d arm = body.pose.translation - body.centerOfMass();  // m
+    body.v_origin = body.v_com + body.omega.cross(arm);
+    force_write = true;
   }
   else if (!body.config.motion.isStatic())
   {

@@ -18,6 +18,7 @@
 #include "fluid_sim/core/neighborhoods.h"
 #include "fluid_sim/core/non_pressure_forces.h"
 #include "fluid_sim/core/parallel.h"
+#include "fluid_sim/core/rigid_dynamics.h"
 #include "fluid_sim/core/step_checks.h"
 #include "fluid_sim/core/step_timer.h"
 
@@ -41,6 +42,7 @@ struct Simulation::Impl
       , forces(scene.viscosity, constants)
       , solver(makePressureSolver({scene, constants, fluid, bodies, neighbors}, fluid))
       , dt_next(computeTimeStep(scene.time_step, fluid, constants.gravity, scene.spacing))
+      , contacts(scene.spacing, scene.contacts)
   {
     fill_report.trimmed = fill.trimmed;
     if (scene.fill.relax)
@@ -108,6 +110,9 @@ struct Simulation::Impl
     // The fluid's force and torque on each body over the step (Eq. A12), and its contacts.
     bodies.updateReports(wrenches, neighbors.fluid_boundary, fluid.size(),
                          [&](std::size_t i, Index b) { return solver->wallPressure(i, b); });
+    // Free bodies move under gravity, the fluid's wrench of this step and contacts, to their
+    // poses at t + dt (Eqs. A24-A26; rigid_dynamics.cpp). Nothing for a scene without them.
+    if (bodies.hasFree()) bodies.stepFree(dt, scene.gravity, contacts);
     t += dt;
     rep.time = t;
     rep.dt = dt;
@@ -140,6 +145,7 @@ struct Simulation::Impl
   double t = 0.0;                          // s, simulated time
   double dt_next;                          // s, the time step of the next step()
   std::size_t removed_total = 0;           // particles that left the domain since t = 0
+  ContactSolver contacts;                  // free bodies' contacts (unused without them)
 };
 
 Simulation::Simulation(const SceneConfig& scene) : impl_(std::make_unique<Impl>(scene)) {}
@@ -262,6 +268,16 @@ BodyInfo Simulation::body(std::size_t index) const
   info.torque_body = b.pose.rotation.conjugate() * b.torque;
   info.contact_particles = b.contact;
   info.max_pressure = b.max_pressure;
+  info.free = b.free;
+  info.center_of_mass = b.free ? b.centerOfMass() : b.pose.translation;
+  info.com_velocity = b.free ? b.v_com : b.v_origin;
+  info.torque_com = b.torque - (info.center_of_mass - b.pose.translation).cross(b.force);
+  info.contact_force = b.contact_force;
+  if (b.free)
+  {
+    info.mass = b.mass;
+    info.inertia = b.inertia_local;
+  }
   return info;
 }
 

@@ -13,6 +13,8 @@
 
 namespace fluid_sim
 {
+class ContactSolver;  // rigid_dynamics.h
+
 /// One rigid body and its motion.
 struct Body
 {
@@ -39,6 +41,26 @@ struct Body
   Vec3d torque = Vec3d::Zero();  // N m, world frame, about the body origin
   std::size_t contact = 0;       // boundary particles with a fluid neighbour
   double max_pressure = 0.0;     // Pa, largest boundary pressure used (density solve)
+
+  // Free bodies (config.dynamic.enabled, rigid_dynamics.h): mass properties and the velocity of
+  // the centre of mass; omega above is the angular velocity.
+  bool free = false;
+  double mass = 0.0;                    // kg
+  Vec3d com_local = Vec3d::Zero();      // m, body frame
+  Mat3d inertia_local = Mat3d::Zero();  // kg m^2, about the centre of mass, body axes
+  Vec3d v_com = Vec3d::Zero();          // m/s, world
+  Vec3d contact_force = Vec3d::Zero();  // N, world: contact impulses of the last step over dt
+
+  Vec3d centerOfMass() const
+  {
+    return pose.apply(com_local);
+  }
+  /// Inverse inertia in world axes, 1/(kg m^2).
+  Mat3d inverseInertiaWorld() const
+  {
+    const Mat3d R = pose.rotation.toRotationMatrix();
+    return R * inertia_local.inverse() * R.transpose();
+  }
 };
 
 /// Per-body sums of the fluid's force (N) and torque about the body origin (N m), world frame.
@@ -90,6 +112,15 @@ public:
   /// Moves every moving body to its pose at `time` (s) and rewrites its particles (Eq. A17).
   void poseMoving(double time);
 
+  /// Free bodies: one step of dt (s) under gravity (m/s^2), the fluid's force and torque of the
+  /// step just solved (Body::force, torque) and contacts (Eqs. A24-A26, rigid_dynamics.cpp), and
+  /// their particles written at the new poses (poseMoving() leaves free bodies alone).
+  void stepFree(double dt, const Vec3d& gravity, ContactSolver& contacts);
+  bool hasFree() const
+  {
+    return has_free_;
+  }
+
   /// Stores the caller's pose of an externally posed body for the next poseMoving().
   void setPendingPose(std::size_t index, const Pose& pose, bool jump);
 
@@ -121,6 +152,7 @@ private:
   std::vector<Body> bodies_;
   std::vector<std::uint8_t> contact_mark_;  // per boundary particle, scratch of updateReports
   std::uint64_t version_ = 0;
+  bool has_free_ = false;
 };
 
 template <class Lists, class PressureAt>

@@ -1,0 +1,273 @@
+// Free rigid bodies (rigid_dynamics.h): mass properties of every shape, free flight, resting on a
+// floor through contacts, floating at the draft Archimedes gives, and a heavy body that sinks.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+
+#include "fluid_sim/core/rigid_dynamics.h"
+#include "fluid_sim/core/simulation.h"
+
+using namespace fluid_sim;
+
+namespace
+{
+constexpr double kG = 9.81;  // m/s^2
+
+BoundaryConfig freeBox(const std::string& name, const Vec3d& min, const Vec3d& max, double density)
+{
+  BoundaryConfig b;
+  b.name = name;
+  b.type = ShapeType::Box;
+  b.box = {min, max};
+  b.dynamic.enabled = true;
+  b.dynamic.density = density;
+  return b;
+}
+
+/// A unit cube's closed surface (outward triangles), scaled by `a` and moved by `o`.
+TriangleMesh cubeMesh(double a, const Vec3d& o)
+{
+  TriangleMesh m;
+  for (int k = 0; k < 8; ++k) m.vertices.push_back(o + a * Vec3d(k & 1, (k >> 1) & 1, (k >> 2) & 1));
+  m.triangles = {{0, 2, 1}, {1, 2, 3}, {0, 1, 5}, {0, 5, 4}, {1, 3, 7}, {1, 7, 5},
+                 {3, 2, 6}, {3, 6, 7}, {2, 0, 4}, {2, 4, 6}, {4, 5, 7}, {4, 7, 6}};
+  return m;
+}
+
+/// A box tank (container) `size` wide with water `depth` deep (0: dry), spacing `s`.
+SceneConfig tank(double s, const Vec3d& size, double depth)
+{
+  SceneConfig scene;
+  scene.spacing = s;
+  scene.domain = {Vec3d(-0.1, -0.1, -0.1), size + Vec3d(0.1, 0.1, 0.1)};
+  scene.time_step.fixed = 0.001;
+  scene.viscosity.model = ViscosityModel::Xsph;
+  scene.viscosity.coefficient = 0.01;
+  BoundaryConfig t;
+  t.name = "tank";
+  t.type = ShapeType::Box;
+  t.box = {Vec3d::Zero(), size};
+  t.inside = true;
+  scene.boundaries.push_back(t);
+  // Without water, a drop of 8 particles in a corner (a scene needs fluid), away from the bodies.
+  FluidBlockConfig f;
+  f.box = {Vec3d::Zero(), depth > 0.0 ? Vec3d(size.x(), size.y(), depth) : Vec3d(2 * s, 2 * s, 2 * s)};
+  scene.fluid.push_back(f);
+  return scene;
+}
+}  // namespace
+
+TEST(FreeBodyMass, PrimitivesAndMeshesHaveTheirTextbookProperties)
+{
+  // Box 0.1 x 0.2 x 0.3 m at density 500: m = 3 kg, I = m/12 (b^2 + c^2, ...).
+  BoundaryConfig box = freeBox("b", Vec3d(0, 0, 0), Vec3d(0.1, 0.2, 0.3), 500.0);
+  MassProperties mp = massProperties(box, "b");
+  EXPECT_NEAR(mp.mass, 3.0, 1e-12);
+  EXPECT_TRUE(mp.com.isApprox(Vec3d(0.05, 0.1, 0.15), 1e-12));
+  EXPECT_NEAR(mp.inertia(0, 0), 3.0 / 12 * (0.04 + 0.09), 1e-12);
+  EXPECT_NEAR(mp.inertia(2, 2), 3.0 / 12 * (0.01 + 0.04), 1e-12);
+  EXPECT_NEAR(mp.inertia(0, 1), 0.0, 1e-15);
+
+  // The same box as a closed mesh gives the same properties (tetrahedra from the origin).
+  BoundaryConfig mesh = box;
+  mesh.type = ShapeType::Mesh;
+  mesh.mesh = cubeMesh(1.0, Vec3d::Zero());
+  for (Vec3d& v : mesh.mesh.vertices) v = v.cwiseProduct(Vec3d(0.1, 0.2, 0.3)) + Vec3d(1, 2, 3);
+  mp = massProperties(mesh, "m");
+  EXPECT_NEAR(mp.mass, 3.0, 1e-9);
+  EXPECT_TRUE(mp.com.isApprox(Vec3d(1.05, 2.1, 3.15), 1e-9));
+  EXPECT_NEAR(mp.inertia(0, 0), 3.0 / 12 * (0.04 + 0.09), 1e-9);
+  EXPECT_NEAR(mp.inertia(1, 1), 3.0 / 12 * (0.01 + 0.09), 1e-9);
+  EXPECT_NEAR(mp.inertia(1, 2), 0.0, 1e-9);
+
+  // Sphere: I = 2/5 m r^2. Cylinder along (1, 1, 0): 1/2 m r^2 about the axis, m (3 r^2 + l^2)/12 across.
+  BoundaryConfig sphere = box;
+  sphere.type = ShapeType::Sphere;
+  sphere.sphere = {Vec3d(0, 0, 1), 0.1};
+  sphere.dynamic.density = 0.0;
+  sphere.dynamic.mass = 2.0;
+  mp = massProperties(sphere, "s");
+  EXPECT_NEAR(mp.inertia(1, 1), 0.4 * 2.0 * 0.01, 1e-12);
+  BoundaryConfig cyl = box;
+  cyl.type = ShapeType::Cylinder;
+  cyl.cylinder = {Vec3d(0, 0, 0), Vec3d(1, 1, 0), 0.1, 0.4};
+  mp = massProperties(cyl, "c");
+  const double m = 500.0 * M_PI * 0.01 * 0.4;
+  const Vec3d axis = Vec3d(1, 1, 0).normalized();
+  EXPECT_NEAR(axis.dot(mp.inertia * axis), 0.5 * m * 0.01, 1e-9);
+  EXPECT_NEAR(Vec3d::UnitZ().dot(mp.inertia * Vec3d::UnitZ()), m * (0.03 + 0.16) / 12.0, 1e-9);
+
+  // A given centre of mass moves the shape's inertia there (parallel axes: + m d^2 across d).
+  box.dynamic.center_of_mass = Vec3d(0.05, 0.1, 0.05);  // 0.1 m below the centroid
+  mp = massProperties(box, "b");
+  EXPECT_NEAR(mp.inertia(0, 0), 3.0 / 12 * (0.04 + 0.09) + 3.0 * 0.01, 1e-12);
+  EXPECT_NEAR(mp.inertia(2, 2), 3.0 / 12 * (0.01 + 0.04), 1e-12);
+}
+
+TEST(FreeBodyMass, OpenOrInsideOutMeshesAndBadEntriesAreRefusedByName)
+{
+  SceneConfig s = tank(0.05, Vec3d(1, 1, 1), 0.0);
+  BoundaryConfig mesh = freeBox("crate", Vec3d::Zero(), Vec3d::Zero(), 600.0);
+  mesh.type = ShapeType::Mesh;
+  mesh.mesh = cubeMesh(0.2, Vec3d(0.4, 0.4, 0.4));
+  for (auto& t : mesh.mesh.triangles) std::swap(t[1], t[2]);  // inward normals
+  s.boundaries.push_back(mesh);
+  try
+  {
+    Simulation sim(s);
+    FAIL() << "an inside-out mesh was accepted";
+  }
+  catch (const ConfigError& e)
+  {
+    EXPECT_NE(std::string(e.what()).find("crate"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("boundaries[1].dynamic"), std::string::npos) << e.what();
+  }
+  s.boundaries[1].mesh_closed = false;
+  try
+  {
+    validate(s);
+    FAIL() << "an open mesh without mass and inertia was accepted";
+  }
+  catch (const ConfigError& e)
+  {
+    EXPECT_NE(std::string(e.what()).find("open mesh"), std::string::npos) << e.what();
+  }
+  s.boundaries[1] = freeBox("crate", Vec3d(0.4, 0.4, 0.4), Vec3d(0.6, 0.6, 0.6), 600.0);
+  s.boundaries[1].dynamic.mass = 2.0;  // both density and mass
+  EXPECT_THROW(validate(s), ConfigError);
+  s.boundaries[1].dynamic.density = 0.0;
+  s.boundaries[1].dynamic.inertia = std::array<double, 6>{1.0, 1.0, 3.0, 0, 0, 0};  // 1 + 1 < 3
+  EXPECT_THROW(validate(s), ConfigError);
+  s.boundaries[1].dynamic.inertia.reset();
+  s.boundaries[0].dynamic = s.boundaries[1].dynamic;  // the tank, a container
+  EXPECT_THROW(validate(s), ConfigError);
+}
+
+TEST(FreeBody, FliesOnAParabolaAndKeepsItsSpinWithoutFluid)
+{
+  SceneConfig s = tank(0.05, Vec3d(1, 1, 1), 0.0);
+  s.domain = {Vec3d(-1, -1, -2), Vec3d(2, 1, 1)};
+  s.boundaries.clear();
+  s.fluid[0].box = {Vec3d(1.5, 0.5, 0.5), Vec3d(1.6, 0.6, 0.6)};  // away from the body
+  BoundaryConfig b = freeBox("brick", Vec3d(-0.1, -0.05, -0.025), Vec3d(0.1, 0.05, 0.025), 800.0);
+  b.dynamic.linear_velocity = Vec3d(1.0, 0.0, 2.0);
+  b.dynamic.angular_velocity = Vec3d(0.0, 0.0, 3.0);  // about a principal axis
+  s.boundaries.push_back(b);
+  Simulation sim(s);
+  const double dt = 0.001;
+  for (int k = 0; k < 400; ++k) ASSERT_FALSE(sim.step().unstable);
+  const BodyInfo info = sim.body(0);
+  const double t = sim.time();
+  EXPECT_TRUE(info.free);
+  EXPECT_NEAR(info.mass, 800.0 * 0.2 * 0.1 * 0.05, 1e-12);
+  // Symplectic Euler: z = v0 t - g t^2 / 2 - g dt t / 2 exactly for constant gravity.
+  EXPECT_NEAR(info.center_of_mass.x(), 1.0 * t, 1e-9);
+  EXPECT_NEAR(info.center_of_mass.z(), 2.0 * t - 0.5 * kG * t * t - 0.5 * kG * dt * t, 1e-9);
+  EXPECT_NEAR(info.com_velocity.z(), 2.0 - kG * t, 1e-9);
+  EXPECT_TRUE(info.angular_velocity.isApprox(Vec3d(0, 0, 3.0), 1e-12));
+  const double yaw = 2.0 * std::atan2(info.pose.rotation.z(), info.pose.rotation.w());
+  EXPECT_NEAR(yaw, 3.0 * t, 1e-9);
+  // The boundary particles move with it: their velocities are the body's at their place.
+  const Vec3 xb = sim.boundaryPositions()[info.first_particle];
+  const Vec3d expected = info.com_velocity + info.angular_velocity.cross(xb.cast<double>() - info.center_of_mass);
+  EXPECT_TRUE(sim.boundaryVelocities()[info.first_particle].cast<double>().isApprox(expected, 1e-5));
+}
+
+TEST(FreeBody, ComesToRestOnTheFloorWithoutJitter)
+{
+  // A dense box dropped 3 cm onto a dry tank floor: contacts stop it at the geometric floor (the
+  // two boundary layers one spacing apart) and hold it there with m g.
+  const double s = 0.02;
+  SceneConfig scene = tank(s, Vec3d(0.4, 0.4, 0.4), 0.0);
+  scene.boundaries.push_back(freeBox("block", Vec3d(0.12, 0.12, 0.03), Vec3d(0.24, 0.22, 0.09), 2000.0));
+  Simulation sim(scene);
+  double max_speed_late = 0.0;  // m/s after 0.5 s
+  while (sim.time() < 1.0 - 1e-9)
+  {
+    ASSERT_FALSE(sim.step().unstable);
+    if (sim.time() > 0.5) max_speed_late = std::max(max_speed_late, sim.body(1).com_velocity.norm());
+  }
+  const BodyInfo b = sim.body(1);
+  std::printf(
+      "block: centre of mass at z %.5f m (resting geometrically: 0.03 m), speed after 0.5 s <= %.2e m/s, "
+      "contact force %.3f N (m g %.3f N), tilt %.2e rad\n",
+      b.center_of_mass.z(), max_speed_late, b.contact_force.z(), b.mass * kG,
+      2.0 * std::asin(std::hypot(b.pose.rotation.x(), b.pose.rotation.y())));
+  EXPECT_NEAR(b.center_of_mass.z(), 0.03, 0.3 * s);
+  EXPECT_LT(max_speed_late, 1e-3);
+  EXPECT_NEAR(b.contact_force.z(), b.mass * kG, 0.01 * b.mass * kG);
+  EXPECT_NEAR(b.center_of_mass.x(), 0.18, 1e-6);  // nothing pushes it sideways
+}
+
+namespace
+{
+struct Floating
+{
+  double draft = 0.0;      // m, mean over the last second: water level minus the body's bottom
+  double expected = 0.0;   // m, Archimedes: rho_b / rho0 times the height
+  double heave_rms = 0.0;  // m, of the centre of mass about its mean over the last second
+  double tilt = 0.0;       // rad, largest over the last second
+  bool stable = true;
+};
+
+/// A box `a` wide and `h` high of `density` released with its bottom at the draft Archimedes
+/// gives, in water 0.15 m deep at spacing `s` in a 0.3 x 0.3 m tank, for `duration` seconds (MLS).
+Floating floatBox(double s, double a, double h, double density, double duration)
+{
+  const Vec3d size(0.3, 0.3, 0.3);
+  SceneConfig scene = tank(s, size, 0.15);
+  const double expected = density / 1000.0 * h;  // m
+  // The level once the box displaces its own mass of water: rest level plus that over the area.
+  const double level = 0.15 + density * a * a * h / 1000.0 / (size.x() * size.y());  // m
+  const Vec3d c(0.15, 0.15, level - expected + 0.5 * h);
+  scene.boundaries.push_back(
+      freeBox("float", c - Vec3d(0.5 * a, 0.5 * a, 0.5 * h), c + Vec3d(0.5 * a, 0.5 * a, 0.5 * h), density));
+  Simulation sim(scene);
+  Floating out;
+  out.expected = expected;
+  std::vector<double> z;
+  while (sim.time() < duration - 1e-9)
+  {
+    const StepReport r = sim.step();
+    if (r.unstable)
+    {
+      out.stable = false;
+      return out;
+    }
+    if (sim.time() < duration - 1.0) continue;
+    const BodyInfo b = sim.body(1);
+    // The water's level from its volume (each particle stands for s^3) and the part of the box
+    // below it, which is the draft itself: level = (N s^3 + a^2 d) / A, d = level - bottom.
+    const double bottom = b.center_of_mass.z() - 0.5 * h;  // m, the box kept level (tilt checked)
+    const double water = sim.numFluidParticles() * s * s * s;
+    const double area = size.x() * size.y();
+    const double draft = (water / area - bottom) / (1.0 - a * a / area);
+    out.draft += draft;
+    z.push_back(b.center_of_mass.z());
+    out.tilt = std::max(out.tilt, 2.0 * std::asin(std::min(1.0, std::hypot(b.pose.rotation.x(), b.pose.rotation.y()))));
+  }
+  out.draft /= double(z.size());
+  double mean = 0.0;
+  for (double v : z) mean += v / double(z.size());
+  for (double v : z) out.heave_rms += (v - mean) * (v - mean) / double(z.size());
+  out.heave_rms = std::sqrt(out.heave_rms);
+  return out;
+}
+}  // namespace
+
+TEST(FreeBody, FloatsAtTheDraftArchimedesGives)
+{
+  // A flat box 8 x 8 x 3 spacings at 2 cm, density 500: draft half its height. Flat, because a
+  // cube of that density floats tilted (upright it is stable only below 211 or above 789 kg/m^3);
+  // this one has a metacentric height of 5.6 cm.
+  const Floating f = floatBox(0.02, 0.16, 0.06, 500.0, 2.0);
+  std::printf(
+      "box 0.16 x 0.16 x 0.06 m, 500 kg/m^3: draft %.4f m (Archimedes %.4f m, ratio %.3f), heave rms %.2e m, "
+      "tilt <= %.3f rad\n",
+      f.draft, f.expected, f.draft / f.expected, f.heave_rms, f.tilt);
+  ASSERT_TRUE(f.stable);
+  EXPECT_NEAR(f.draft / f.expected, 1.0, 0.05);
+  EXPECT_LT(f.tilt, 0.05);
+}
