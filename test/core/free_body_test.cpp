@@ -314,3 +314,50 @@ TEST(FreeBody, HeavySphereSinksToTheFloorAndKeepsTheWaterOut)
   // The floor carries more than the weight less buoyancy (6.2 N against 2.6 N here): at this
   // resolution no water gets under the ball near the floor, and the water above presses it down.
 }
+
+TEST(FreeBody, StacksAndIsPushedByAScriptedPaddleWithoutPassingThrough)
+{
+  // Dry tank: a box resting on another, and a third pushed along the floor by a scripted paddle
+  // at 0.3 m/s (kinematic: it pushes and is not pushed back).
+  const double s = 0.02;
+  SceneConfig scene = tank(s, Vec3d(0.6, 0.4, 0.4), 0.0);
+  scene.fluid[0].box = {Vec3d(0.56, 0.36, 0.0), Vec3d(0.6, 0.4, 0.04)};  // the drop, in a far corner
+  scene.boundaries.push_back(freeBox("bottom", Vec3d(0.04, 0.24, 0.0), Vec3d(0.16, 0.36, 0.06), 1000.0));
+  scene.boundaries.push_back(freeBox("top", Vec3d(0.06, 0.26, 0.08), Vec3d(0.14, 0.34, 0.12), 1000.0));
+  scene.boundaries.push_back(freeBox("pushed", Vec3d(0.2, 0.04, 0.0), Vec3d(0.28, 0.12, 0.06), 800.0));
+  BoundaryConfig paddle;
+  paddle.name = "paddle";
+  paddle.type = ShapeType::Box;
+  paddle.box = {Vec3d(0.06, 0.02, 0.02), Vec3d(0.1, 0.14, 0.1)};
+  paddle.motion.linear_velocity = Vec3d(0.3, 0.0, 0.0);
+  scene.boundaries.push_back(paddle);
+  Simulation sim(scene);
+  const std::size_t bottom = sim.bodyIndex("bottom"), top = sim.bodyIndex("top"), pushed = sim.bodyIndex("pushed");
+  double closest = 1e9;  // m, smallest distance between a particle of the paddle and one of the pushed box
+  while (sim.time() < 1.0 - 1e-9)
+  {
+    ASSERT_FALSE(sim.step().unstable);
+    const BodyInfo p = sim.body(sim.bodyIndex("paddle")), q = sim.body(pushed);
+    const auto& x = sim.boundaryPositions();
+    for (std::size_t i = p.first_particle; i < p.first_particle + p.num_particles; i += 3)
+      for (std::size_t j = q.first_particle; j < q.first_particle + q.num_particles; ++j)
+        closest = std::min(closest, double((x[i] - x[j]).norm()));
+  }
+  const BodyInfo b = sim.body(bottom), t = sim.body(top), q = sim.body(pushed);
+  std::printf(
+      "stack: bottom at z %.4f (0.03), top at z %.4f (0.08), top's speed %.2e m/s; pushed box at x %.4f "
+      "(paddle front at %.4f), closest particles %.4f m (spacing %.3f m)\n",
+      b.center_of_mass.z(), t.center_of_mass.z(), t.com_velocity.norm(), q.center_of_mass.x(), 0.1 + 0.3 * sim.time(),
+      closest, s);
+  // The stack rests: each box on the one below within the nesting of aligned layers.
+  EXPECT_NEAR(b.center_of_mass.z(), 0.03, 0.1 * s);
+  EXPECT_NEAR(t.center_of_mass.z(), 0.08, 0.1 * s);
+  EXPECT_LT(t.com_velocity.norm(), 1e-3);
+  // The pushed box is ahead of the paddle (its back face at the paddle's front) and still on the
+  // floor; the two layers never came closer than half a spacing.
+  EXPECT_GT(q.center_of_mass.x() - 0.04, 0.1 + 0.3 * sim.time() - 0.3 * s);
+  // Sliding, its bottom layer rides over the floor's: offset by half a spacing along the motion,
+  // a pair of particles one spacing apart is sqrt(3)/2 s high, 0.13 s below resting (0.137 s here).
+  EXPECT_NEAR(q.center_of_mass.z(), 0.03 - 0.07 * s, 0.08 * s);
+  EXPECT_GT(closest, 0.5 * s);
+}
