@@ -1,5 +1,6 @@
-// fluid_sim_run: runs a scene headless and writes PLY frames, stats.csv and summary.json, and the
-// instruments' regions.csv, probes.csv and spill.csv when the scene declares them.
+// fluid_sim_run: runs a scene headless and writes PLY frames, stats.csv and summary.json, the
+// instruments' regions.csv, probes.csv and spill.csv when the scene declares them, and bodies.csv
+// when it has free bodies.
 //
 //   fluid_sim_run SCENE.yaml [--duration S] [--out DIR] [--set key.path=value ...] [--threads N]
 //
@@ -26,6 +27,7 @@
 
 #include "fluid_sim/core/measurements.h"
 #include "fluid_sim/core/simulation.h"
+#include "fluid_sim/io/bodies_writer.h"
 #include "fluid_sim/io/measurement_writer.h"
 #include "fluid_sim/io/ply_writer.h"
 #include "fluid_sim/io/run_summary.h"
@@ -189,6 +191,9 @@ void printSummary(const fluid_sim::io::RunSummary& s, const fluid_sim::FillRepor
   for (const auto& body : s.bodies)
     std::printf("body     %s: mean force %s N, mean torque %s N m\n", body.name.c_str(),
                 vectorText(body.mean.force).c_str(), vectorText(body.mean.torque).c_str());
+  for (const auto& body : s.free_bodies)
+    std::printf("free     %s: centre of mass %s m, velocity %s m/s at the end\n", body.name.c_str(),
+                vectorText(body.center_of_mass).c_str(), vectorText(body.linear_velocity).c_str());
   std::printf("status   %s%s%s\n", s.status.c_str(), s.reason.empty() ? "" : ": ", s.reason.c_str());
   std::printf("output   %s (%zu frames)\n", out_dir.string().c_str(), frames);
 }
@@ -251,21 +256,29 @@ int run(const Options& options)
   };
   writeFrameIfDue(sim->time(), 0.0, false);
 
-  // Instruments (regions, probes, spill): measured at the frame times (frame k after the step
-  // that ends nearest to k * frame_interval), and after the last step; without frames
-  // (frame_interval 0) at the start and after the last step. A scene without them measures nothing.
+  // Instruments (regions, probes, spill) and free bodies (bodies.csv): measured at the frame
+  // times (frame k after the step that ends nearest to k * frame_interval), and after the last
+  // step; without frames (frame_interval 0) at the start and after the last step. A scene with
+  // neither measures nothing.
   std::unique_ptr<io::MeasurementCsvWriter> instrument_csv;
   if (!instruments->empty())
     instrument_csv = std::make_unique<io::MeasurementCsvWriter>(out_dir.string(), *instruments);
+  std::unique_ptr<io::BodiesCsvWriter> bodies_csv;
+  if (io::hasFreeBodies(*sim)) bodies_csv = std::make_unique<io::BodiesCsvWriter>((out_dir / "bodies.csv").string());
   std::size_t measure_slot = 0;  // the next measurement is due at measure_slot * frame_interval
   double last_measured = -1.0;   // s, simulated time of the last measurement
-  std::size_t measurements = 0;
-  double measure_ms = 0.0;  // wall time of all evaluations
+  std::size_t measurements = 0;  // of the instruments
+  double measure_ms = 0.0;       // wall time of all the instruments' evaluations
   std::optional<io::SpillSummary> spill;
   if (scene.spill.enabled) spill = io::SpillSummary{scene.spill.below, 0, 0.0, 0, 0.0};
   const auto measureIfDue = [&](double t, double dt, bool force) {
-    if (!instrument_csv || t == last_measured) return;
+    if ((!instrument_csv && !bodies_csv) || t == last_measured) return;
     if (!force && (frame_interval <= 0.0 || t + 0.5 * dt < measure_slot * frame_interval)) return;
+    last_measured = t;
+    if (frame_interval > 0.0)
+      measure_slot = std::max(measure_slot, static_cast<std::size_t>(std::floor((t + 0.5 * dt) / frame_interval)) + 1);
+    if (bodies_csv) bodies_csv->write(t, io::bodyInfos(*sim));
+    if (!instrument_csv) return;
     const auto measure_start = Clock::now();
     const MeasurementReport m = instruments->evaluate(*sim);
     measure_ms += 1000.0 * secondsSince(measure_start);
@@ -278,9 +291,6 @@ int run(const Options& options)
       spill->max_particles = std::max(spill->max_particles, m.spill.particles);
       spill->max_volume = std::max(spill->max_volume, m.spill.volume);
     }
-    last_measured = t;
-    if (frame_interval > 0.0)
-      measure_slot = std::max(measure_slot, static_cast<std::size_t>(std::floor((t + 0.5 * dt) / frame_interval)) + 1);
   };
   measureIfDue(sim->time(), 0.0, true);
 
@@ -319,6 +329,7 @@ int run(const Options& options)
     {
       csv.flush();
       if (instrument_csv) instrument_csv->flush();
+      if (bodies_csv) bodies_csv->flush();
       last_flush = Clock::now();
     }
   }
@@ -326,6 +337,7 @@ int run(const Options& options)
   csv.flush();
   measureIfDue(sim->time(), 0.0, true);  // the final state (unless just measured)
   if (instrument_csv) instrument_csv->flush();
+  if (bodies_csv) bodies_csv->flush();
 
   io::RunSummary summary = io::summarize(*sim, stats);
   summary.threads = options.threads;

@@ -18,6 +18,8 @@
 #include <thread>
 #include <vector>
 
+#include "fluid_sim/core/simulation.h"
+#include "fluid_sim/io/scene_loader.h"
 #include "temp_dir.h"
 
 namespace fluid_sim
@@ -290,6 +292,58 @@ TEST(Runner, RegionOfAnUnknownBodyExitsTwoNamingIt)
   EXPECT_NE(r.err.find("error: tiny.yaml: regions[0].body: no boundary body named 'mug' (bodies: tank, ball)"),
             std::string::npos)
       << r.err;
+}
+
+// The tiny tank with a free box of density 500 kg/m^3 above the water (format only: the dynamics
+// are the core's and tested there).
+const char* const kFreeBox = R"yaml(
+  - name: raft
+    box: {min: [0.1, 0.1, 0.3], max: [0.2, 0.2, 0.4]}
+    dynamic: {density: 500}
+)yaml";
+
+TEST(Runner, WritesFreeBodiesCsvAndSummary)
+{
+  test::TempDir dir;
+  // No free body: neither bodies.csv nor free_bodies.
+  dir.write("plain.yaml", kTinyScene);
+  RunResult r = run(dir, "plain.yaml --out plain --threads 1 --duration 0.01");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_FALSE(fs::exists(dir.path() / "plain" / "bodies.csv"));
+  EXPECT_FALSE(readJson(dir.file("plain/summary.json")).contains("free_bodies"));
+
+  // kTinyScene's boundaries list ends just before `output`: the raft goes after the ball.
+  std::string scene = kTinyScene;
+  scene.insert(scene.find("output:"), std::string(kFreeBox).substr(1));
+  const std::string path = dir.write("raft.yaml", scene);
+  {
+    Simulation sim(io::loadScene(path));
+    if (!sim.body(sim.bodyIndex("raft")).free)
+      GTEST_SKIP() << "the core does not mark free bodies yet (BodyInfo::free); bodies.csv is not written";
+  }
+  // Frames every 0.01 s for 0.02 s (10 steps of 2 ms): measured at t = 0, 0.01 and 0.02 s.
+  r = run(dir, "raft.yaml --out raft --threads 1 --duration 0.02 --set output.frame_interval=0.01");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::vector<std::string> rows = lines(dir.file("raft/bodies.csv"));
+  ASSERT_EQ(rows.size(), 1u + 3u);  // the raft only: the tank and the ball are not free
+  EXPECT_EQ(rows[0], "t,body,x,y,z,qx,qy,qz,qw,vx,vy,vz,wx,wy,wz,fx,fy,fz,tx,ty,tz");
+  for (std::size_t i = 1; i < rows.size(); ++i)
+  {
+    const std::vector<std::string> f = fields(rows[i]);
+    ASSERT_EQ(f.size(), 21u) << rows[i];
+    EXPECT_NEAR(std::stod(f[0]), 0.01 * double(i - 1), 1e-9) << rows[i];
+    EXPECT_EQ(f[1], "raft");
+    for (std::size_t k = 2; k < f.size(); ++k) EXPECT_NO_THROW((void)std::stod(f[k])) << rows[i];
+  }
+  const nlohmann::json summary = readJson(dir.file("raft/summary.json"));
+  ASSERT_TRUE(summary.contains("free_bodies"));
+  ASSERT_EQ(summary["free_bodies"].size(), 1u);
+  const nlohmann::json& raft = summary["free_bodies"]["raft"];
+  EXPECT_EQ(raft["center_of_mass"].size(), 3u);
+  EXPECT_EQ(raft["orientation"].size(), 4u);
+  EXPECT_EQ(raft["linear_velocity"].size(), 3u);
+  EXPECT_EQ(raft["angular_velocity"].size(), 3u);
+  EXPECT_TRUE(raft["mass"].is_number());
 }
 
 }  // namespace

@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <array>
 #include <string>
 #include <vector>
 
@@ -50,6 +52,12 @@ boundaries:
     box: {min: [0, 0, 0], max: [1.0, 0.1, 0.6]}
     inside: true
   - sphere: {center: [0.5, 0.05, 0.3], radius: 0.05}
+    dynamic:
+      mass: 0.4
+      inertia: [4.0e-4, 5.0e-4, 6.0e-4, 1.0e-5, 2.0e-5, 3.0e-5]
+      center_of_mass: [0.01, 0, -0.02]
+      linear_velocity: [0.1, 0.2, 0.3]
+      angular_velocity: [0, 0, 2]
   - name: drum
     cylinder: {center: [0, 0, 0], axis: [0, 1, 0], radius: 0.3, length: 0.2}
     inside: true
@@ -63,6 +71,7 @@ boundaries:
       triangles: [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]]
     offset: none
 output: {frame_interval: 0.02}
+contacts: {friction: 0.3}
 )yaml";
 
 // A small valid scene; tests add keys to it.
@@ -166,6 +175,17 @@ TEST(SceneLoader, FullExampleParses)
   EXPECT_FALSE(ball.inside);
   EXPECT_TRUE(ball.sphere.center.isApprox(Vec3d(0.5, 0.05, 0.3)));
   EXPECT_DOUBLE_EQ(ball.sphere.radius, 0.05);
+  EXPECT_TRUE(ball.dynamic.enabled);
+  EXPECT_DOUBLE_EQ(ball.dynamic.mass, 0.4);
+  EXPECT_DOUBLE_EQ(ball.dynamic.density, 0.0);
+  ASSERT_TRUE(ball.dynamic.inertia.has_value());
+  EXPECT_EQ(*ball.dynamic.inertia, (std::array<double, 6>{4.0e-4, 5.0e-4, 6.0e-4, 1.0e-5, 2.0e-5, 3.0e-5}));
+  ASSERT_TRUE(ball.dynamic.center_of_mass.has_value());
+  EXPECT_TRUE(ball.dynamic.center_of_mass->isApprox(Vec3d(0.01, 0, -0.02)));
+  EXPECT_TRUE(ball.dynamic.linear_velocity.isApprox(Vec3d(0.1, 0.2, 0.3)));
+  EXPECT_TRUE(ball.dynamic.angular_velocity.isApprox(Vec3d(0, 0, 2)));
+  EXPECT_FALSE(tank.dynamic.enabled);
+  EXPECT_DOUBLE_EQ(s.contacts.friction, 0.3);
 
   const BoundaryConfig& drum = s.boundaries[2];
   EXPECT_EQ(drum.type, ShapeType::Cylinder);
@@ -579,6 +599,109 @@ TEST(SceneLoader, BadInstrumentKeysAreNamed)
               "regions[0].pose", "only a box region");
   expectError(kBase + "probes:\n  - {name: a, positon: [0, 0, 0]}\n", "probes[0].positon", "unknown key");
   expectError(kBase + "spill: {}\n", "spill.below", "missing");
+}
+
+// ------------------------------------------------------------------------------ free bodies
+
+TEST(SceneLoader, DynamicKeysAndContactDefaults)
+{
+  const SceneConfig s = parseScene(kBase + kBoundaries + "    dynamic: {density: 500}\n", "scene.yaml");
+  ASSERT_EQ(s.boundaries.size(), 2u);
+  const DynamicConfig& d = s.boundaries[1].dynamic;
+  EXPECT_TRUE(d.enabled);
+  EXPECT_DOUBLE_EQ(d.density, 500.0);
+  EXPECT_DOUBLE_EQ(d.mass, 0.0);
+  EXPECT_FALSE(d.inertia.has_value());  // from the shape (core)
+  EXPECT_FALSE(d.center_of_mass.has_value());
+  EXPECT_TRUE(d.linear_velocity.isZero());
+  EXPECT_TRUE(d.angular_velocity.isZero());
+  EXPECT_FALSE(s.boundaries[0].dynamic.enabled);
+
+  const SceneConfig plain = parseScene(kBase + kBoundaries, "scene.yaml");
+  EXPECT_FALSE(plain.boundaries[1].dynamic.enabled);
+  EXPECT_DOUBLE_EQ(plain.contacts.friction, ContactConfig().friction);
+  EXPECT_DOUBLE_EQ(parseScene(kBase + "contacts: {friction: 0}\n", "scene.yaml").contacts.friction, 0.0);
+}
+
+TEST(SceneLoader, BadDynamicAndContactKeysAreNamed)
+{
+  const std::string ball = kBase + kBoundaries;
+  expectError(ball + "    dynamic: {density: 500, densty: 600}\n", "boundaries[1].dynamic.densty",
+              "unknown key (did you mean 'density'?) (line 13)");
+  expectError(ball + "    dynamic: {density: 500, spin: [0, 0, 1]}\n", "boundaries[1].dynamic.spin", "unknown key");
+  expectError(ball + "    dynamic: {mass: 1, inertia: [1, 1, 1]}\n", "boundaries[1].dynamic.inertia",
+              "expected 6 numbers [ixx, iyy, izz, ixy, ixz, iyz], got a list of 3 (line 13)");
+  expectError(ball + "    dynamic: {mass: 1, inertia: [1, 1, 1, 0, 0, x]}\n", "boundaries[1].dynamic.inertia[5]",
+              "expected a number");
+  expectError(ball + "    dynamic: {density: 500, center_of_mass: [0, 0]}\n", "boundaries[1].dynamic.center_of_mass",
+              "expected a 3-vector");
+  expectError(ball + "    dynamic: {density: 500, linear_velocity: fast}\n", "boundaries[1].dynamic.linear_velocity",
+              "expected a 3-vector");
+  expectError(ball + "    dynamic: {density: heavy}\n", "boundaries[1].dynamic.density", "expected a number");
+  expectError(ball + "    dynamic: 500\n", "boundaries[1].dynamic", "expected a map");
+  // Exactly one of density and mass, and physical values, are core's validate().
+  expectError(ball + "    dynamic: {density: 500, mass: 1}\n", "boundaries[1].dynamic", "exactly one");
+  expectError(ball + "    dynamic: {}\n", "boundaries[1].dynamic", "exactly one");
+  expectError(kBase + "contacts: {frction: 0.2}\n", "contacts.frction", "did you mean 'friction'");
+  expectError(kBase + "contacts: {friction: slippery}\n", "contacts.friction", "expected a number");
+  expectError(kBase + "contacts: {friction: -1}\n", "contacts.friction", "must be finite and >= 0");
+}
+
+namespace
+{
+// Two links with collision geometry and one without, for free_links.
+const char* const kBoatUrdf = R"(<robot name="boat">
+  <link name="hull"><collision><geometry><box size="0.2 0.1 0.1"/></geometry></collision></link>
+  <link name="mast"><collision><origin xyz="0 0 0.1"/><geometry><sphere radius="0.03"/></geometry></collision></link>
+  <link name="flag"/>
+  <joint name="mast_mount" type="fixed"><parent link="hull"/><child link="mast"/></joint>
+  <joint name="flag_mount" type="fixed"><parent link="mast"/><child link="flag"/></joint>
+</robot>)";
+
+/// kBase with one urdf entry reading `urdf` (an absolute path), with the given extra keys inside
+/// the urdf map (YAML lines indented 6).
+std::string boatScene(const std::string& urdf, const std::string& urdf_keys)
+{
+  return kBase + "boundaries:\n  - urdf:\n      file: " + urdf + "\n" + urdf_keys +
+         "    pose: {xyz: [0.7, 0.7, 0.7]}\n";
+}
+}  // namespace
+
+TEST(SceneLoader, UrdfFreeLinks)
+{
+  test::TempDir dir;
+  const std::string urdf = dir.write("boat.urdf", kBoatUrdf);
+  const SceneConfig s = parseScene(boatScene(urdf,
+                                             "      free_links:\n"
+                                             "        hull: {density: 500, linear_velocity: [0, 0, -0.1]}\n"),
+                                   "scene.yaml");
+  ASSERT_EQ(s.boundaries.size(), 2u);
+  const auto byName = [&](const std::string& name) -> const BoundaryConfig& {
+    return *std::find_if(s.boundaries.begin(), s.boundaries.end(),
+                         [&](const BoundaryConfig& b) { return b.name == name; });
+  };
+  const BoundaryConfig& hull = byName("hull");
+  EXPECT_TRUE(hull.dynamic.enabled);
+  EXPECT_DOUBLE_EQ(hull.dynamic.density, 500.0);
+  EXPECT_TRUE(hull.dynamic.linear_velocity.isApprox(Vec3d(0, 0, -0.1)));
+  EXPECT_FALSE(byName("mast").dynamic.enabled);
+
+  // An empty map frees nothing.
+  for (const auto& b : parseScene(boatScene(urdf, "      free_links: {}\n"), "scene.yaml").boundaries)
+    EXPECT_FALSE(b.dynamic.enabled) << b.name;
+
+  expectError(boatScene(urdf, "      free_links: {keel: {density: 500}}\n"), "boundaries[0].urdf.free_links.keel",
+              "unknown link 'keel' in " + urdf + " (links: ");
+  expectError(boatScene(urdf, "      links: [mast]\n      free_links: {hull: {density: 500}}\n"),
+              "boundaries[0].urdf.free_links.hull", "link 'hull' in " + urdf + " is not one of this entry's bodies");
+  expectError(boatScene(urdf, "      free_links: {flag: {mass: 1}}\n"), "boundaries[0].urdf.free_links.flag",
+              "without collision geometry; bodies: hull or mast) (line 9)");
+  expectError(boatScene(urdf, "      free_links: {hull: {desnity: 500}}\n"),
+              "boundaries[0].urdf.free_links.hull.desnity", "did you mean 'density'");
+  expectError(boatScene(urdf, "      free_links: [hull]\n"), "boundaries[0].urdf.free_links", "expected a map");
+  expectError(boatScene(urdf, "      free_links: {hull: {density: 500, mass: 2}}\n"), "boundaries[0].dynamic",
+              "exactly one of density (kg/m^3) and mass (kg) for 'hull'");
+  expectError(boatScene(urdf, "") + "    dynamic: {density: 500}\n", "boundaries[0].dynamic", "urdf.free_links");
 }
 
 }  // namespace fluid_sim

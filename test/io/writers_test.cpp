@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "fluid_sim/io/bodies_writer.h"
 #include "fluid_sim/io/ply_writer.h"
 #include "fluid_sim/io/run_summary.h"
 #include "fluid_sim/io/stats_writer.h"
@@ -223,6 +224,73 @@ TEST(RunSummary, JsonHasContractFields)
   EXPECT_EQ(body["torque"], nlohmann::json({4.0, 5.0, 6.0}));
   EXPECT_EQ(body["mean_force"], nlohmann::json({0.5, 1.0, 1.5}));
   EXPECT_EQ(body["mean_torque"], nlohmann::json({2.0, 2.5, 3.0}));
+}
+
+TEST(BodiesCsvWriter, HeaderAndOneRowPerFreeBody)
+{
+  test::TempDir dir;
+  const std::string path = dir.file("bodies.csv");
+  BodyInfo tank;  // not free: no row
+  tank.name = "tank";
+  BodyInfo raft;
+  raft.name = "raft";
+  raft.free = true;
+  raft.mass = 2.0;
+  raft.center_of_mass = Vec3d(0.1, 0.2, 0.3);
+  raft.pose.translation = Vec3d(9, 9, 9);                        // the origin is not written: the centre of mass is
+  raft.pose.rotation = Eigen::Quaterniond(0.5, 0.5, -0.5, 0.5);  // w, x, y, z
+  raft.com_velocity = Vec3d(1, 2, 3);
+  raft.linear_velocity = Vec3d(7, 7, 7);  // of the origin: not written
+  raft.angular_velocity = Vec3d(4, 5, 6);
+  raft.force = Vec3d(-1, -2, -3);
+  raft.torque = Vec3d(8, 8, 8);  // about the origin: not written
+  raft.torque_com = Vec3d(0.25, 0.5, 0.75);
+  {
+    io::BodiesCsvWriter csv(path);
+    csv.write(0.0, {tank, raft});
+    raft.center_of_mass.z() = 0.123456789012;  // written to 9 significant digits
+    csv.write(0.05, {tank, raft});
+    csv.write(0.1, {tank});  // no free body: no row
+    csv.flush();
+  }
+  std::istringstream lines(test::readFile(path));
+  std::string header, row1, row2, extra;
+  std::getline(lines, header);
+  std::getline(lines, row1);
+  std::getline(lines, row2);
+  EXPECT_FALSE(std::getline(lines, extra)) << extra;
+  EXPECT_EQ(header, "t,body,x,y,z,qx,qy,qz,qw,vx,vy,vz,wx,wy,wz,fx,fy,fz,tx,ty,tz");
+  EXPECT_EQ(header, io::BodiesCsvWriter::header());
+  EXPECT_EQ(row1, "0,raft,0.1,0.2,0.3,0.5,-0.5,0.5,0.5,1,2,3,4,5,6,-1,-2,-3,0.25,0.5,0.75");
+  EXPECT_EQ(row2.rfind("0.05,raft,0.1,0.2,0.123456789,", 0), 0u) << row2;
+  EXPECT_THROW(io::BodiesCsvWriter(dir.file("no/such/dir/bodies.csv")), std::runtime_error);
+}
+
+TEST(RunSummary, FreeBodiesOnlyWhenThereAreAny)
+{
+  io::RunSummary s;
+  EXPECT_FALSE(nlohmann::json::parse(io::toJson(s)).contains("free_bodies"));
+  io::FreeBodySummary raft;
+  raft.name = "raft";
+  raft.center_of_mass = Vec3d(0.1, 0.2, 0.3);
+  raft.orientation = Eigen::Quaterniond(0.5, 0.5, -0.5, 0.5);  // w, x, y, z
+  raft.linear_velocity = Vec3d(1, 2, 3);
+  raft.angular_velocity = Vec3d(4, 5, 6);
+  raft.mass = 2.5;
+  s.free_bodies.push_back(raft);
+  raft.name = "hull";
+  s.free_bodies.push_back(raft);
+  const nlohmann::json j = nlohmann::json::parse(io::toJson(s));
+  ASSERT_TRUE(j.contains("free_bodies"));
+  ASSERT_TRUE(j["free_bodies"].is_object());
+  EXPECT_EQ(j["free_bodies"].size(), 2u);
+  const auto& b = j["free_bodies"]["raft"];
+  EXPECT_EQ(b["center_of_mass"], nlohmann::json({0.1, 0.2, 0.3}));
+  EXPECT_EQ(b["orientation"], nlohmann::json({0.5, -0.5, 0.5, 0.5}));  // qx, qy, qz, qw
+  EXPECT_EQ(b["linear_velocity"], nlohmann::json({1.0, 2.0, 3.0}));
+  EXPECT_EQ(b["angular_velocity"], nlohmann::json({4.0, 5.0, 6.0}));
+  EXPECT_DOUBLE_EQ(b["mass"].get<double>(), 2.5);
+  EXPECT_TRUE(j["free_bodies"].contains("hull"));
 }
 
 }  // namespace

@@ -132,6 +132,20 @@ std::string toJson(const RunSummary& s)
                   {"volume_m3", s.spill->volume},
                   {"max_particles", s.spill->max_particles},
                   {"max_volume_m3", s.spill->max_volume}};
+  if (!s.free_bodies.empty())
+  {
+    nlohmann::ordered_json free = nlohmann::ordered_json::object();
+    for (const FreeBodySummary& b : s.free_bodies)
+    {
+      const Eigen::Quaterniond& q = b.orientation;
+      free[b.name] = {{"center_of_mass", toJson(b.center_of_mass)},
+                      {"orientation", nlohmann::ordered_json::array({q.x(), q.y(), q.z(), q.w()})},
+                      {"linear_velocity", toJson(b.linear_velocity)},
+                      {"angular_velocity", toJson(b.angular_velocity)},
+                      {"mass", b.mass}};
+    }
+    j["free_bodies"] = free;
+  }
   return j.dump(2) + "\n";
 }
 

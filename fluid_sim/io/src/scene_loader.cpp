@@ -399,6 +399,35 @@ MotionConfig readMotion(const Entry& e)
   return m;
 }
 
+/// `dynamic: {density | mass, inertia, center_of_mass, linear_velocity, angular_velocity}`: a free
+/// body. Only types and lengths are checked here; which of density and mass, and whether the
+/// numbers are physical, is validate()'s (scene_config.cpp, validateDynamic).
+DynamicConfig readDynamic(const Entry& e)
+{
+  MapReader r(e);
+  DynamicConfig d;
+  d.enabled = true;
+  r.read("density", d.density);         // kg/m^3
+  r.read("mass", d.mass);               // kg
+  if (auto inertia = r.get("inertia"))  // kg m^2, about the centre of mass, body axes
+    d.inertia = readArray<double, 6>(*inertia, "6 numbers [ixx, iyy, izz, ixy, ixz, iyz]");
+  if (auto com = r.get("center_of_mass")) d.center_of_mass = readVec3(*com);  // m, body frame
+  r.read("linear_velocity", d.linear_velocity);                               // m/s, world
+  r.read("angular_velocity", d.angular_velocity);                             // rad/s, world
+  r.finish();
+  return d;
+}
+
+/// `contacts: {friction}`.
+ContactConfig readContacts(const Entry& e)
+{
+  MapReader r(e);
+  ContactConfig c;
+  r.read("friction", c.friction);
+  r.finish();
+  return c;
+}
+
 /// Refuses a body whose sampling would exceed the particle budget, naming the scene entry.
 void checkBudget(const Entry& e, const BoundaryConfig& b, const LoadContext& ctx)
 {
@@ -484,8 +513,9 @@ SpillConfig readSpill(const Entry& e)
   return spill;
 }
 
-/// urdf: {file, links, joint_positions}: one body per selected link, each with the entry's common
-/// keys (`common`: inside, pose of the root link, motion, sample_spacing, external, offset).
+/// urdf: {file, links, joint_positions, free_links}: one body per selected link, each with the
+/// entry's common keys (`common`: inside, pose of the root link, motion, sample_spacing, external,
+/// offset); the links named in free_links are free bodies (their `dynamic`).
 std::vector<BoundaryConfig> readUrdf(const Entry& e, const BoundaryConfig& common, double finest_spacing,
                                      const LoadContext& ctx)
 {
@@ -546,6 +576,33 @@ std::vector<BoundaryConfig> readUrdf(const Entry& e, const BoundaryConfig& commo
       options.joint_positions[name] = readScalar<double>(value);
     }
   }
+  // free_links: {link: {density | mass, ...}}, each value read as a boundary's `dynamic`. Whether
+  // the link has a body in this entry is known only once the bodies are built (below).
+  struct FreeLink
+  {
+    std::string name;
+    Entry at;  // the link's key, for messages (its line)
+    DynamicConfig dynamic;
+  };
+  std::vector<FreeLink> free_links;
+  if (auto free = r.get("free_links"))
+  {
+    if (!free->node.IsMap() && !free->node.IsNull()) typeError(*free, "a map {link: {density | mass, ...}}");
+    MapReader keys(*free);  // rejects duplicate and non-scalar keys
+    for (const auto& item : free->node)
+    {
+      const std::string name = item.first.Scalar();
+      const Entry value{item.second, childKey(free->key, name)};
+      if (!robot.link(name))
+      {
+        std::vector<std::string> names;
+        for (const auto& l : robot.links) names.push_back(l.name);
+        throw ConfigError(value.key, "unknown link '" + name + "' in " + urdf_name +
+                                         " (links: " + joinNames(names, " or ") + ")" + lineOf(item.first));
+      }
+      free_links.push_back({name, {item.first, value.key}, readDynamic(value)});
+    }
+  }
   r.finish();
   options.root_pose = common.pose;
   options.spacing = finest_spacing;
@@ -569,6 +626,21 @@ std::vector<BoundaryConfig> readUrdf(const Entry& e, const BoundaryConfig& commo
     b.sample_spacing = common.sample_spacing;
     b.externally_posed = common.externally_posed;
     b.mesh_offset = common.mesh_offset;
+  }
+  for (const FreeLink& link : free_links)
+  {
+    const auto body =
+        std::find_if(bodies.begin(), bodies.end(), [&](const BoundaryConfig& b) { return b.name == link.name; });
+    if (body == bodies.end())
+    {
+      std::vector<std::string> names;
+      for (const auto& b : bodies) names.push_back(b.name);
+      throw ConfigError(link.at.key, "link '" + link.name + "' in " + urdf_name +
+                                         " is not one of this entry's bodies (not in links, or without collision "
+                                         "geometry; bodies: " +
+                                         joinNames(names, " or ") + ")" + lineOf(link.at.node));
+    }
+    body->dynamic = link.dynamic;
   }
   return bodies;
 }
@@ -621,6 +693,10 @@ std::vector<BoundaryConfig> readBoundary(const Entry& e, std::size_t index, cons
     if (auto name = r.get("name"))
       throw ConfigError(name->key,
                         "a urdf entry's bodies are named after its links; give no name" + lineOf(name->node));
+    if (auto dynamic = r.get("dynamic"))
+      throw ConfigError(dynamic->key,
+                        "a urdf entry's links are made free one by one: give urdf.free_links: {LINK: {density: ...}}" +
+                            lineOf(dynamic->node));
     r.finish();
     // The links' motion is not known here (external in the node): facets as fine as the finest
     // sampling any of them may get.
@@ -632,6 +708,7 @@ std::vector<BoundaryConfig> readBoundary(const Entry& e, std::size_t index, cons
     return bodies;
   }
   r.read("name", b.name);
+  if (auto dynamic = r.get("dynamic")) b.dynamic = readDynamic(*dynamic);
   r.finish();
 
   if (shape_name == "box")
@@ -706,6 +783,7 @@ SceneConfig readScene(const YAML::Node& root, LoadContext& ctx)
   if (auto e = r.get("regions")) forEachItem(*e, [&](const Entry& item) { s.regions.push_back(readRegion(item)); });
   if (auto e = r.get("probes")) forEachItem(*e, [&](const Entry& item) { s.probes.push_back(readProbe(item)); });
   if (auto e = r.get("spill")) s.spill = readSpill(*e);
+  if (auto e = r.get("contacts")) s.contacts = readContacts(*e);
   r.finish();
   return s;
 }

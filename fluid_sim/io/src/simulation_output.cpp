@@ -29,6 +29,20 @@ std::vector<Wrench> bodyWrenches(const Simulation& sim)
   return wrenches;
 }
 
+std::vector<BodyInfo> bodyInfos(const Simulation& sim)
+{
+  std::vector<BodyInfo> bodies;
+  for (std::size_t i = 0; i < sim.numBodies(); ++i) bodies.push_back(sim.body(i));
+  return bodies;
+}
+
+bool hasFreeBodies(const Simulation& sim)
+{
+  for (std::size_t i = 0; i < sim.numBodies(); ++i)
+    if (sim.body(i).free) return true;
+  return false;
+}
+
 RunSummary summarize(const Simulation& sim, const RunStatistics& stats)
 {
   RunSummary s;
@@ -42,6 +56,12 @@ RunSummary summarize(const Simulation& sim, const RunStatistics& stats)
   s.boundary_particles = sim.boundaryPositions().size();
   s.fill = sim.fillReport();
   stats.fill(s);
+  for (std::size_t i = 0; i < sim.numBodies(); ++i)
+  {
+    const BodyInfo b = sim.body(i);
+    if (b.free)
+      s.free_bodies.push_back({b.name, b.center_of_mass, b.pose.rotation, b.com_velocity, b.angular_velocity, b.mass});
+  }
   return s;
 }
 

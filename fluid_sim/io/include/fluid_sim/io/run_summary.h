@@ -28,6 +28,17 @@ struct BodySummary
   Wrench mean;  // time average over the last tenth of the simulated time (JSON: mean_force, mean_torque)
 };
 
+/// The final state of a free body (scene key `dynamic`, or a urdf entry's free_links).
+struct FreeBodySummary
+{
+  std::string name;
+  Vec3d center_of_mass = Vec3d::Zero();                             // m, world
+  Eigen::Quaterniond orientation = Eigen::Quaterniond::Identity();  // body -> world (JSON: [qx, qy, qz, qw])
+  Vec3d linear_velocity = Vec3d::Zero();                            // m/s, world, of the centre of mass
+  Vec3d angular_velocity = Vec3d::Zero();                           // rad/s, world
+  double mass = 0.0;                                                // kg
+};
+
 /// Spill over a run (scene key spill): fluid outside every region and below a height, as the
 /// runner measured it at its frame times.
 struct SpillSummary
@@ -66,7 +77,8 @@ struct RunSummary
   double max_density_error = 0.0;           // relative, max over steps of StepReport::density_error
   std::vector<BodySummary> bodies;
   FillReport fill;  // the fill before t = 0 (JSON: fill {trimmed, relaxed, relax_steps, settled, ...})
-  std::optional<SpillSummary> spill;  // only for a scene with a spill key (JSON: spill, else absent)
+  std::optional<SpillSummary> spill;         // only for a scene with a spill key (JSON: spill, else absent)
+  std::vector<FreeBodySummary> free_bodies;  // at the end of the run (JSON: free_bodies, absent when empty)
 
   /// Simulated time per wall time over the whole run (0 before any time has passed).
   double realTimeFactor() const;
@@ -113,8 +125,10 @@ private:
 /// removed_total}, boundary_particles, steps, simulated_time_s, wall_time_s, step_time_s,
 /// ms_per_step, real_time_factor, mean_divergence_iterations, mean_density_iterations,
 /// mean_density_error, max_density_error, bodies [{name, force [N], torque [N m], mean_force,
-/// mean_torque}] (world frame, torque about the body origin), and for a scene with a spill key
-/// spill {below_m, particles, volume_m3, max_particles, max_volume_m3}.
+/// mean_torque}] (world frame, torque about the body origin), for a scene with a spill key
+/// spill {below_m, particles, volume_m3, max_particles, max_volume_m3}, and for a scene with free
+/// bodies free_bodies {NAME: {center_of_mass [m], orientation [qx, qy, qz, qw], linear_velocity
+/// [m/s], angular_velocity [rad/s], mass [kg]}} (world frame, the final state).
 std::string toJson(const RunSummary& summary);
 
 /// Writes toJson(summary) to `path` (through a temporary file and a rename). Throws

@@ -22,8 +22,15 @@ std::vector<std::string> bodyNames(const Simulation& sim);
 /// body origin, in body index order.
 std::vector<Wrench> bodyWrenches(const Simulation& sim);
 
+/// Every body's state (Simulation::body()), in body index order.
+std::vector<BodyInfo> bodyInfos(const Simulation& sim);
+
+/// Whether any body of `sim` is free (BodyInfo::free).
+bool hasFreeBodies(const Simulation& sim);
+
 /// A summary of the run so far: scene facts and particle counts from `sim`, step figures and body
-/// wrenches from `stats`. The caller sets threads, overrides, wall_time, status and reason.
+/// wrenches from `stats`, the free bodies' current state from `sim`. The caller sets threads,
+/// overrides, wall_time, status and reason.
 RunSummary summarize(const Simulation& sim, const RunStatistics& stats);
 
 }  // namespace io

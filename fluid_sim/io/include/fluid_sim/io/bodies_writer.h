@@ -1,0 +1,41 @@
+#pragma once
+// The runner's bodies.csv: the state of every free body (scene key `dynamic`, or a urdf entry's
+// free_links), one row per free body per measurement (the runner writes at its frame times, as
+// regions.csv). Created only when the scene has a free body. Columns, a contract read by name:
+//   t,body,x,y,z,qx,qy,qz,qw,vx,vy,vz,wx,wy,wz,fx,fy,fz,tx,ty,tz
+// t in s; x y z the centre of mass, m, world; q the body's orientation (body -> world, unit
+// quaternion); v the centre of mass's velocity, m/s, world; w the angular velocity, rad/s, world;
+// f the fluid's force, N, world; t the fluid's torque about the centre of mass, N m, world.
+
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "fluid_sim/core/simulation.h"
+
+namespace fluid_sim
+{
+namespace io
+{
+class BodiesCsvWriter
+{
+public:
+  /// Creates (truncates) `path` with the header. Throws std::runtime_error naming the file if it
+  /// cannot be created.
+  explicit BodiesCsvWriter(const std::string& path);
+
+  /// One row per body of `bodies` whose `free` is set, at simulated time `t` (s); the others are
+  /// skipped.
+  void write(double t, const std::vector<BodyInfo>& bodies);
+  /// Flushes; throws std::runtime_error naming the file if it could not be written.
+  void flush();
+
+  static const char* header();
+
+private:
+  std::string path_;
+  std::ofstream out_;
+};
+
+}  // namespace io
+}  // namespace fluid_sim

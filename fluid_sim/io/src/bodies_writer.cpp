@@ -1,0 +1,46 @@
+#include "fluid_sim/io/bodies_writer.h"
+
+#include <stdexcept>
+
+namespace fluid_sim
+{
+namespace io
+{
+const char* BodiesCsvWriter::header()
+{
+  return "t,body,x,y,z,qx,qy,qz,qw,vx,vy,vz,wx,wy,wz,fx,fy,fz,tx,ty,tz";
+}
+
+BodiesCsvWriter::BodiesCsvWriter(const std::string& path) : path_(path), out_(path, std::ios::trunc)
+{
+  if (!out_) throw std::runtime_error("cannot create " + path_);
+  out_.precision(9);  // significant digits, as stats.csv and the instrument files
+  out_ << header() << '\n';
+}
+
+void BodiesCsvWriter::write(double t, const std::vector<BodyInfo>& bodies)
+{
+  const auto vec = [this](const Vec3d& v) { out_ << ',' << v.x() << ',' << v.y() << ',' << v.z(); };
+  for (const BodyInfo& b : bodies)
+  {
+    if (!b.free) continue;
+    const Eigen::Quaterniond& q = b.pose.rotation;
+    out_ << t << ',' << b.name;
+    vec(b.center_of_mass);
+    out_ << ',' << q.x() << ',' << q.y() << ',' << q.z() << ',' << q.w();
+    vec(b.com_velocity);
+    vec(b.angular_velocity);
+    vec(b.force);
+    vec(b.torque_com);
+    out_ << '\n';
+  }
+}
+
+void BodiesCsvWriter::flush()
+{
+  out_.flush();
+  if (!out_) throw std::runtime_error("cannot write " + path_);
+}
+
+}  // namespace io
+}  // namespace fluid_sim
