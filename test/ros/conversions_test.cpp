@@ -534,7 +534,9 @@ TEST(Reconfigure, EveryGroupsCopyOfAParameterIsSet)
 {
   // The generated class's constructors leave each group's copy of a parameter uninitialised; a
   // config made in storage full of 0x40 bytes shows whether toReconfigure() set them (a copy of
-  // the config loaded the bool 64 before: UBSan in the node's Services::advertise()).
+  // the config loaded the bool 64 before: UBSan in the node's Services::advertise()). With the
+  // return value built in place, toReconfigure()'s own config is this storage: it must not read
+  // any of it before writing it (under UBSan this test reports such a read).
   alignas(fluid_sim::FluidSimConfig) unsigned char storage[sizeof(fluid_sim::FluidSimConfig)];
   std::memset(storage, 0x40, sizeof storage);
   SolverConfig solver;

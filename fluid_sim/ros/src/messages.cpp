@@ -178,7 +178,12 @@ fluid_msgs::SolverStats toSolverStats(const StepReport& report, const Simulation
 
 fluid_sim::FluidSimConfig toReconfigure(const SolverConfig& solver, const ViscosityConfig& viscosity)
 {
-  fluid_sim::FluidSimConfig c;
+  // Value-initialised ({}): the generated class has no constructor of its own, so this zeroes
+  // every member first, each group's copy of a parameter included. Default-initialised, those
+  // copies hold whatever the memory held, and __toMessage__() (fillReconfigureGroups) copies the
+  // whole config into a boost::any before it sets them: a load of an indeterminate bool (UBSan:
+  // "load of value 64 ... not a valid value for type 'bool'" in Reconfigure's test).
+  fluid_sim::FluidSimConfig c{};
   c.density_error = solver.density_error;
   c.divergence_error = solver.divergence_error;
   c.min_iterations = solver.min_iterations;
