@@ -175,6 +175,26 @@ void validateInstruments(const SceneConfig& s)
         break;
     }
   }
+  for (std::size_t i = 0; i < s.sinks.size(); ++i)
+  {
+    const RegionConfig& r = s.sinks[i];
+    const std::string key = "sinks[" + std::to_string(i) + "]";
+    requireInstrumentName(s.sinks, i, key);
+    switch (r.shape)
+    {
+      case RegionShape::Box:
+        requireBox(r.box, key + ".box");
+        requireFinite(r.pose.translation, key + ".pose.xyz");
+        if (!r.pose.rotation.coeffs().allFinite()) throw ConfigError(key + ".pose.rpy", "must be finite");
+        break;
+      case RegionShape::Sphere:
+        requireFinite(r.sphere.center, key + ".sphere.center");
+        requirePositive(r.sphere.radius, key + ".sphere.radius");
+        break;
+      case RegionShape::Body:
+        throw ConfigError(key + ".body", "a sink is a box or a sphere, not a body's inside");
+    }
+  }
   for (std::size_t i = 0; i < s.probes.size(); ++i)
   {
     const std::string key = "probes[" + std::to_string(i) + "]";

@@ -44,6 +44,7 @@ struct Simulation::Impl
       , dt_next(computeTimeStep(scene.time_step, fluid, constants.gravity, scene.spacing))
       , contacts(scene.spacing, scene.contacts)
   {
+    for (const RegionConfig& sink : scene.sinks) sink_totals.push_back({sink.name, 0, 0.0, 0.0});
     fill_report.trimmed = fill.trimmed;
     if (scene.fill.relax)
     {
@@ -124,12 +125,55 @@ struct Simulation::Impl
     {
       rep.removed = removeOutsideDomain(fluid, scene.domain);
       removed_total += rep.removed;
+      if (!scene.sinks.empty()) rep.drained = drain();
     }
     rep.fluid_particles = fluid.size();
     solver->report(rep);
 
     // 8. The next time step (Eq. A15).
     dt_next = computeTimeStep(scene.time_step, fluid, constants.gravity, scene.spacing);
+  }
+
+  /// Removes the fluid particles inside a sink, each counted against the first sink (in the
+  /// scene's order) that holds it; returns how many.
+  std::size_t drain()
+  {
+    const std::size_t n = fluid.size();
+    std::vector<std::int32_t> in(n, -1);  // the sink holding each particle, or -1
+    parallelFor(n, [&](std::size_t i) {
+      const Vec3d x = fluid.x[i].cast<double>();
+      for (std::size_t k = 0; k < scene.sinks.size(); ++k)
+      {
+        const RegionConfig& r = scene.sinks[k];
+        const bool inside =
+            r.shape == RegionShape::Sphere
+                ? (x - r.sphere.center).squaredNorm() <= r.sphere.radius * r.sphere.radius
+                : [&] {
+                    const Vec3d local = r.pose.rotation.conjugate() * (x - r.pose.translation);
+                    return (local.array() >= r.box.min.array()).all() && (local.array() <= r.box.max.array()).all();
+                  }();
+        if (inside)
+        {
+          in[i] = std::int32_t(k);
+          return;
+        }
+      }
+    });
+    std::vector<std::uint8_t> keep(n, 1);
+    std::size_t drained = 0;
+    for (std::size_t i = 0; i < n; ++i)  // serial: the counts, in particle order
+      if (in[i] >= 0)
+      {
+        keep[i] = 0;
+        SinkTotal& total = sink_totals[std::size_t(in[i])];
+        ++total.particles;
+        // Each particle stands for the cube of one spacing at rest density (as the fill makes it).
+        total.volume += scene.spacing * scene.spacing * scene.spacing;
+        total.mass += scene.rest_density * scene.spacing * scene.spacing * scene.spacing;
+        ++drained;
+      }
+    if (drained > 0) fluid.keepIf(keep);
+    return drained;
   }
 
   SceneConfig scene;
@@ -146,6 +190,7 @@ struct Simulation::Impl
   double dt_next;                          // s, the time step of the next step()
   std::size_t removed_total = 0;           // particles that left the domain since t = 0
   ContactSolver contacts;                  // free bodies' contacts (unused without them)
+  std::vector<SinkTotal> sink_totals;      // per scene sink, since t = 0
 };
 
 Simulation::Simulation(const SceneConfig& scene) : impl_(std::make_unique<Impl>(scene)) {}
@@ -312,6 +357,10 @@ const FillReport& Simulation::fillReport() const
 std::size_t Simulation::removedTotal() const
 {
   return impl_->removed_total;
+}
+const std::vector<SinkTotal>& Simulation::sinkTotals() const
+{
+  return impl_->sink_totals;
 }
 double Simulation::particleMass() const
 {

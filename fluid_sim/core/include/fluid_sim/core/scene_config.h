@@ -330,7 +330,10 @@ struct SceneConfig
   std::vector<ProbeConfig> probes;    // key: probes
   SpillConfig spill;                  // key: spill
   ContactConfig contacts;             // key: contacts
-  double duration = 1.0;              // s, default run length for the runner     key: duration
+  // Drains (key sinks: a box with an optional pose, or a sphere; a name as a region's): water
+  // that enters one after a step is removed and counted against it. Never a body region.
+  std::vector<RegionConfig> sinks;
+  double duration = 1.0;  // s, default run length for the runner     key: duration
   /// Largest number of boundary particles one body may be sampled into; validate() refuses a
   /// body whose estimate (from its surface area and sample spacing) exceeds it, before sampling.
   std::size_t max_boundary_particles = 2000000;  //                    key: max_boundary_particles

@@ -34,6 +34,7 @@ struct StepReport
   double boundary_pressure_work = 0.0;
   std::size_t fluid_particles = 0;  // after the step
   std::size_t removed = 0;          // particles that left the domain during this step
+  std::size_t drained = 0;          // particles removed by the scene's sinks after this step
   std::size_t mls_fallbacks = 0;    // boundary particles using Eq. 16 this step (MLS only)
   std::size_t mls_reduced = 0;      // boundary particles with a pseudo-inverse fit (MLS only)
   std::size_t active_boundary = 0;  // boundary particles with a fluid neighbour
@@ -110,6 +111,15 @@ struct BodyInfo
   Vec3d contact_force = Vec3d::Zero();   // N, world, from contacts with other bodies in the last step
 };
 
+/// What a sink (scene key sinks) has removed since t = 0.
+struct SinkTotal
+{
+  std::string name;
+  std::size_t particles = 0;
+  double volume = 0.0;  // m^3, particles times spacing^3 (the volume each stands for)
+  double mass = 0.0;    // kg
+};
+
 class Simulation
 {
 public:
@@ -169,8 +179,10 @@ public:
   std::size_t removedAtStart() const;
   /// The trimming and relaxation of the lattices before t = 0.
   const FillReport& fillReport() const;
-  std::size_t removedTotal() const;  // particles that left the domain since start
-  double particleMass() const;       // kg
+  std::size_t removedTotal() const;  // particles that left the domain since start (sinks not counted)
+  /// Per sink of the scene, in its order: what it removed since t = 0.
+  const std::vector<SinkTotal>& sinkTotals() const;
+  double particleMass() const;  // kg
 
 private:
   struct Impl;
