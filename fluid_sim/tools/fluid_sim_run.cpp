@@ -1,6 +1,6 @@
 // fluid_sim_run: runs a scene headless and writes PLY frames, stats.csv and summary.json, the
-// instruments' regions.csv, probes.csv and spill.csv when the scene declares them, and bodies.csv
-// when it has free bodies.
+// instruments' regions.csv, probes.csv and spill.csv when the scene declares them, bodies.csv
+// when it has free bodies, and sinks.csv when it has sinks.
 //
 //   fluid_sim_run SCENE.yaml [--duration S] [--out DIR] [--set key.path=value ...] [--threads N]
 //
@@ -194,6 +194,9 @@ void printSummary(const fluid_sim::io::RunSummary& s, const fluid_sim::FillRepor
   for (const auto& body : s.free_bodies)
     std::printf("free     %s: centre of mass %s m, velocity %s m/s at the end\n", body.name.c_str(),
                 vectorText(body.center_of_mass).c_str(), vectorText(body.linear_velocity).c_str());
+  for (const auto& sink : s.sinks)
+    std::printf("sink     %s: drained %zu particles, %.6g m^3, %.6g kg\n", sink.name.c_str(), sink.particles,
+                sink.volume, sink.mass);
   std::printf("status   %s%s%s\n", s.status.c_str(), s.reason.empty() ? "" : ": ", s.reason.c_str());
   std::printf("output   %s (%zu frames)\n", out_dir.string().c_str(), frames);
 }
@@ -265,6 +268,8 @@ int run(const Options& options)
     instrument_csv = std::make_unique<io::MeasurementCsvWriter>(out_dir.string(), *instruments);
   std::unique_ptr<io::BodiesCsvWriter> bodies_csv;
   if (io::hasFreeBodies(*sim)) bodies_csv = std::make_unique<io::BodiesCsvWriter>((out_dir / "bodies.csv").string());
+  std::unique_ptr<io::SinksCsvWriter> sinks_csv;
+  if (!scene.sinks.empty()) sinks_csv = std::make_unique<io::SinksCsvWriter>((out_dir / "sinks.csv").string());
   std::size_t measure_slot = 0;  // the next measurement is due at measure_slot * frame_interval
   double last_measured = -1.0;   // s, simulated time of the last measurement
   std::size_t measurements = 0;  // of the instruments
@@ -272,12 +277,13 @@ int run(const Options& options)
   std::optional<io::SpillSummary> spill;
   if (scene.spill.enabled) spill = io::SpillSummary{scene.spill.below, 0, 0.0, 0, 0.0};
   const auto measureIfDue = [&](double t, double dt, bool force) {
-    if ((!instrument_csv && !bodies_csv) || t == last_measured) return;
+    if ((!instrument_csv && !bodies_csv && !sinks_csv) || t == last_measured) return;
     if (!force && (frame_interval <= 0.0 || t + 0.5 * dt < measure_slot * frame_interval)) return;
     last_measured = t;
     if (frame_interval > 0.0)
       measure_slot = std::max(measure_slot, static_cast<std::size_t>(std::floor((t + 0.5 * dt) / frame_interval)) + 1);
     if (bodies_csv) bodies_csv->write(t, io::bodyInfos(*sim));
+    if (sinks_csv) sinks_csv->write(t, sim->sinkTotals());
     if (!instrument_csv) return;
     const auto measure_start = Clock::now();
     const MeasurementReport m = instruments->evaluate(*sim);
@@ -330,6 +336,7 @@ int run(const Options& options)
       csv.flush();
       if (instrument_csv) instrument_csv->flush();
       if (bodies_csv) bodies_csv->flush();
+      if (sinks_csv) sinks_csv->flush();
       last_flush = Clock::now();
     }
   }
@@ -338,6 +345,7 @@ int run(const Options& options)
   measureIfDue(sim->time(), 0.0, true);  // the final state (unless just measured)
   if (instrument_csv) instrument_csv->flush();
   if (bodies_csv) bodies_csv->flush();
+  if (sinks_csv) sinks_csv->flush();
 
   io::RunSummary summary = io::summarize(*sim, stats);
   summary.threads = options.threads;

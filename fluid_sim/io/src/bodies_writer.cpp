@@ -42,5 +42,29 @@ void BodiesCsvWriter::flush()
   if (!out_) throw std::runtime_error("cannot write " + path_);
 }
 
+const char* SinksCsvWriter::header()
+{
+  return "t,sink,particles,volume_m3,mass_kg";
+}
+
+SinksCsvWriter::SinksCsvWriter(const std::string& path) : path_(path), out_(path, std::ios::trunc)
+{
+  if (!out_) throw std::runtime_error("cannot create " + path_);
+  out_.precision(9);
+  out_ << header() << '\n';
+}
+
+void SinksCsvWriter::write(double t, const std::vector<SinkTotal>& sinks)
+{
+  for (const SinkTotal& s : sinks)
+    out_ << t << ',' << s.name << ',' << s.particles << ',' << s.volume << ',' << s.mass << '\n';
+}
+
+void SinksCsvWriter::flush()
+{
+  out_.flush();
+  if (!out_) throw std::runtime_error("cannot write " + path_);
+}
+
 }  // namespace io
 }  // namespace fluid_sim

@@ -146,6 +146,13 @@ std::string toJson(const RunSummary& s)
     }
     j["free_bodies"] = free;
   }
+  if (!s.sinks.empty())
+  {
+    nlohmann::ordered_json sinks = nlohmann::ordered_json::object();
+    for (const SinkTotal& k : s.sinks)
+      sinks[k.name] = {{"particles", k.particles}, {"volume_m3", k.volume}, {"mass_kg", k.mass}};
+    j["sinks"] = sinks;
+  }
   return j.dump(2) + "\n";
 }
 

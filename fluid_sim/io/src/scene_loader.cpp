@@ -784,6 +784,8 @@ SceneConfig readScene(const YAML::Node& root, LoadContext& ctx)
   if (auto e = r.get("probes")) forEachItem(*e, [&](const Entry& item) { s.probes.push_back(readProbe(item)); });
   if (auto e = r.get("spill")) s.spill = readSpill(*e);
   if (auto e = r.get("contacts")) s.contacts = readContacts(*e);
+  // A sink is read as a region (name, box with pose, or sphere); validate() refuses a body one.
+  if (auto e = r.get("sinks")) forEachItem(*e, [&](const Entry& item) { s.sinks.push_back(readRegion(item)); });
   r.finish();
   return s;
 }

@@ -1,7 +1,7 @@
 #pragma once
-// The runner's bodies.csv: the state of every free body (scene key `dynamic`, or a urdf entry's
-// free_links), one row per free body per measurement (the runner writes at its frame times, as
-// regions.csv). Created only when the scene has a free body. Columns, a contract read by name:
+// The runner's bodies.csv and sinks.csv. bodies.csv: the state of every free body (scene key `dynamic`, or a urdf
+// entry's free_links), one row per free body per measurement (the runner writes at its frame times, as regions.csv).
+// Created only when the scene has a free body. Columns, a contract read by name:
 //   t,body,x,y,z,qx,qy,qz,qw,vx,vy,vz,wx,wy,wz,fx,fy,fz,tx,ty,tz
 // t in s; x y z the centre of mass, m, world; q the body's orientation (body -> world, unit
 // quaternion); v the centre of mass's velocity, m/s, world; w the angular velocity, rad/s, world;
@@ -30,6 +30,23 @@ public:
   /// Flushes; throws std::runtime_error naming the file if it could not be written.
   void flush();
 
+  static const char* header();
+
+private:
+  std::string path_;
+  std::ofstream out_;
+};
+
+/// The runner's sinks.csv: what each sink (scene key sinks) has removed since t = 0, one row per
+/// sink per measurement (the same times as bodies.csv). Created only when the scene has a sink.
+/// Columns: t,sink,particles,volume_m3,mass_kg (cumulative; volume as particles times spacing^3).
+class SinksCsvWriter
+{
+public:
+  /// Creates (truncates) `path` with the header; throws std::runtime_error naming the file.
+  explicit SinksCsvWriter(const std::string& path);
+  void write(double t, const std::vector<SinkTotal>& sinks);
+  void flush();
   static const char* header();
 
 private:

@@ -79,6 +79,9 @@ struct RunSummary
   FillReport fill;  // the fill before t = 0 (JSON: fill {trimmed, relaxed, relax_steps, settled, ...})
   std::optional<SpillSummary> spill;         // only for a scene with a spill key (JSON: spill, else absent)
   std::vector<FreeBodySummary> free_bodies;  // at the end of the run (JSON: free_bodies, absent when empty)
+  // What each sink removed over the run (JSON: sinks {NAME: {particles, volume_m3, mass_kg}},
+  // absent without sinks).
+  std::vector<SinkTotal> sinks;
 
   /// Simulated time per wall time over the whole run (0 before any time has passed).
   double realTimeFactor() const;
