@@ -45,7 +45,16 @@ void SolverLoop::setScene(SceneConfig scene, std::vector<BoundaryConfig> link_bo
 std::vector<std::string> SolverLoop::linkNames() const
 {
   std::vector<std::string> names;
-  for (const BoundaryConfig& b : link_configs_) names.push_back(b.name);
+  for (const BoundaryConfig& b : link_configs_)
+    if (!b.dynamic.enabled) names.push_back(b.name);
+  return names;
+}
+
+std::set<std::string> SolverLoop::freeLinkNames() const
+{
+  std::set<std::string> names;
+  for (const BoundaryConfig& b : link_configs_)
+    if (b.dynamic.enabled) names.insert(b.name);
   return names;
 }
 
@@ -54,7 +63,9 @@ void SolverLoop::build(const std::map<std::string, Pose>& poses)
   SceneConfig scene = base_scene_;
   for (BoundaryConfig b : link_configs_)
   {
-    b.pose = poses.at(b.name);
+    // A free link (~free_links) starts, at every build, from its URDF pose (readRobotLinks); tf
+    // would give back only where the node itself last put it.
+    if (!b.dynamic.enabled) b.pose = poses.at(b.name);
     scene.boundaries.push_back(std::move(b));
   }
   // The poses are tf's newest now; the construction (the fill's relaxation: up to seconds) takes
@@ -559,7 +570,15 @@ void SolverLoop::publishFrame(const StepReport& rep, double paced_rtf)
     boundary_dirty_ = false;
   }
   f.body_poses.resize(sim_->numBodies());
-  for (std::size_t k = 0; k < sim_->numBodies(); ++k) f.body_poses[k] = sim_->body(k).pose;
+  f.free_bodies.bodies.clear();
+  f.free_bodies.header.stamp = f.stamp;
+  f.free_bodies.header.frame_id = opt_.fixed_frame;
+  for (std::size_t k = 0; k < sim_->numBodies(); ++k)
+  {
+    const BodyInfo b = sim_->body(k);
+    f.body_poses[k] = b.pose;
+    if (b.free) f.free_bodies.bodies.push_back(toFreeBody(b));
+  }
   f.wrenches.header.stamp = f.stamp;
   f.wrenches.header.frame_id = opt_.fixed_frame;
   wrench_means_.take(*sim_, f.wrenches.wrenches);

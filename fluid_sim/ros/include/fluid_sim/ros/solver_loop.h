@@ -14,6 +14,7 @@
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <set>
 #include <string>
 #include <thread>
 #include <utility>
@@ -54,8 +55,10 @@ public:
   /// settings start from the node options.
   void setScene(SceneConfig scene, std::vector<BoundaryConfig> link_bodies);
 
-  /// Names of the links posed from tf.
+  /// Names of the links posed from tf (not the free ones).
   std::vector<std::string> linkNames() const;
+  /// Names of the links that are free bodies (~free_links): the simulation moves them.
+  std::set<std::string> freeLinkNames() const;
 
   /// Builds the simulation with the link bodies at `poses`. Throws StartupError.
   void build(const std::map<std::string, Pose>& poses);
