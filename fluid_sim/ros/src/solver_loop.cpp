@@ -110,6 +110,7 @@ void SolverLoop::build(const std::map<std::string, Pose>& poses)
   wrench_means_.setWindow(opt_.wrench_window);
   sim_time_ = sim_->time();  // build() runs before start() or under cmd_mutex_ (reset)
   boundary_dirty_ = true;
+  last_frame_sim_ = -1.0;
   reanchor_ = true;
   rtf_sim0_ = 0.0;
   rtf_wall0_ = WallClock::now();
@@ -414,7 +415,9 @@ void SolverLoop::run()
     {
       ROS_ERROR("simulation unstable at t = %.4f s: %s. Paused; call ~reset to start again.", rep.time,
                 rep.reason.c_str());
-      publishFrame(rep, frame_rtf);
+      // Not twice for one step (afterStep may have published it): a second transform of a moving
+      // or free body at the same stamp is TF_REPEATED_DATA to every tf listener.
+      if (last_frame_sim_ != sim_->time()) publishFrame(rep, frame_rtf);
       std::lock_guard<std::mutex> lock(cmd_mutex_);
       paused_ = true;
       steps_requested_ = 0;
@@ -429,7 +432,9 @@ void SolverLoop::run()
     }
     if (opt_.stop_after > 0.0 && !finished && sim_->time() >= opt_.stop_after - 1e-9)
     {
-      publishFrame(rep, frame_rtf);
+      // Not twice for one step (afterStep may have published it): a second transform of a moving
+      // or free body at the same stamp is TF_REPEATED_DATA to every tf listener.
+      if (last_frame_sim_ != sim_->time()) publishFrame(rep, frame_rtf);
       finished = true;
       printSummary();
       if (on_finished_) on_finished_(0);
@@ -553,6 +558,7 @@ void SolverLoop::afterStep(const StepReport& rep, double paced_rtf)
 void SolverLoop::publishFrame(const StepReport& rep, double paced_rtf)
 {
   const auto t0 = WallClock::now();
+  last_frame_sim_ = sim_->time();
   Frame& f = publishers_.back();
   f.stamp = paced_rtf > 0.0 ? rosInstant(sim_->time(), paced_rtf) : ros::Time::now();
   f.fluid.positions = sim_->positions();

@@ -182,7 +182,8 @@ private:
   double rtf_measured_ = 0.0;  // simulated s per wall s
 
   // Solver-thread state: frames.
-  bool boundary_dirty_ = true;                                    // the boundary cloud must be (re)published
+  bool boundary_dirty_ = true;    // the boundary cloud must be (re)published
+  double last_frame_sim_ = -1.0;  // s, simulated time of the last frame published (-1: none since the build)
   std::vector<std::pair<std::size_t, std::size_t>> body_ranges_;  // boundary particles of each body
   WrenchMeans wrench_means_;
   // The scene's instruments, measured once per published frame; null for a scene without any.
