@@ -90,6 +90,10 @@ struct FluidSimNode::Impl
     // Before the threads: a name clash is a start-up error.
     const std::vector<BodyTopic> bodies = bodyTopics(sim, loop.freeLinkNames());
     for (const BodyTopic& b : bodies)
+      if (b.free)
+        ROS_INFO("free body '%s': frame '%s' on /tf, its state on %s", b.name.c_str(), b.frame.c_str(),
+                 nh.resolveName("free_bodies").c_str());
+    for (const BodyTopic& b : bodies)
       if (b.topic != "wrench/" + b.name)
         ROS_WARN("body '%s': its wrench is published on %s ('%s' is not a valid ROS name)", b.name.c_str(),
                  nh.resolveName(b.topic).c_str(), b.name.c_str());
