@@ -687,3 +687,152 @@ TEST(WrenchWindow, AStaticSubmergedCubeReadsArchimedesInEveryMessageAtTheDefault
   EXPECT_GT(lo, 0.95);
   EXPECT_LT(hi, 1.05);
 }
+
+// ------------------------------------------------------------------------------ ~free_links
+namespace
+{
+/// A scene (for the checks' settings) and two robot links as readRobotLinks makes them: posed
+/// from tf, shapes in the link frames, `pusher` at its URDF pose.
+SceneConfig freeLinkScene()
+{
+  return io::parseScene(R"yaml(
+spacing: 0.02
+domain: {min: [-0.5, -0.5, -0.5], max: [0.5, 0.5, 0.5]}
+fluid:
+  - box: {min: [-0.1, -0.1, -0.1], max: [0.1, 0.1, 0.0]}
+)yaml",
+                        "scene.yaml");
+}
+
+std::vector<BoundaryConfig> robotLinks()
+{
+  BoundaryConfig tank;
+  tank.name = "tank";
+  tank.box = {Vec3d(-0.15, -0.15, -0.15), Vec3d(0.15, 0.15, 0.15)};
+  tank.externally_posed = true;
+  tank.inside = true;
+  BoundaryConfig pusher = tank;
+  pusher.name = "pusher";
+  pusher.box = {Vec3d(-0.04, -0.04, -0.04), Vec3d(0.04, 0.04, 0.04)};
+  pusher.inside = false;
+  pusher.pose.translation = Vec3d(0.0, 0.0, 0.1);
+  return {tank, pusher};
+}
+
+/// The what() of the StartupError `f` throws ("" if none).
+std::string startupError(const std::function<void()>& f)
+{
+  try
+  {
+    f();
+  }
+  catch (const StartupError& e)
+  {
+    return e.what();
+  }
+  return "";
+}
+}  // namespace
+
+TEST(FreeLinks, ANamedLinkBecomesAFreeBodyNotPosedFromTf)
+{
+  const XmlRpc::XmlRpcValue param = yamlToParameters(
+      "{pusher: {density: 600, linear_velocity: [0.1, 0, 0], center_of_mass: [0, 0, 0.01]}, tank: {mass: 2}}");
+  const std::vector<FreeLinkOption> free = readFreeLinks(param, "/fluid_sim/fluid_sim");
+  ASSERT_EQ(free.size(), 2u);
+  EXPECT_EQ(free[0].link, "pusher");  // by name
+  EXPECT_TRUE(free[0].dynamic.enabled);
+  EXPECT_DOUBLE_EQ(free[0].dynamic.density, 600.0);  // an int parameter, read as kg/m^3
+  EXPECT_DOUBLE_EQ(free[0].dynamic.linear_velocity.x(), 0.1);
+  ASSERT_TRUE(free[0].dynamic.center_of_mass);
+  EXPECT_DOUBLE_EQ(free[0].dynamic.center_of_mass->z(), 0.01);
+  EXPECT_DOUBLE_EQ(free[1].dynamic.mass, 2.0);
+
+  std::vector<BoundaryConfig> links = robotLinks();
+  applyFreeLinks({free[0]}, links, freeLinkScene(), "/fluid_sim/fluid_sim");
+  EXPECT_TRUE(links[0].externally_posed);  // the tank is still posed from tf
+  EXPECT_FALSE(links[0].dynamic.enabled);
+  EXPECT_FALSE(links[1].externally_posed);
+  EXPECT_TRUE(links[1].dynamic.enabled);
+  EXPECT_DOUBLE_EQ(links[1].dynamic.density, 600.0);
+  EXPECT_DOUBLE_EQ(links[1].pose.translation.z(), 0.1);  // starts at its URDF pose
+}
+
+TEST(FreeLinks, AnUnknownLinkIsRefusedWithTheParameterTheLinkAndTheValue)
+{
+  const std::vector<FreeLinkOption> free =
+      readFreeLinks(yamlToParameters("{no_such_link: {density: 500}}"), "/fluid_sim/fluid_sim");
+  std::vector<BoundaryConfig> links = robotLinks();
+  const std::string what = startupError([&] { applyFreeLinks(free, links, freeLinkScene(), "/fluid_sim/fluid_sim"); });
+  std::printf("unknown link: %s\n", what.c_str());
+  EXPECT_NE(what.find("/fluid_sim/fluid_sim/free_links"), std::string::npos) << what;
+  EXPECT_NE(what.find("'no_such_link'"), std::string::npos) << what;
+  EXPECT_NE(what.find("{\"density\": 500}"), std::string::npos) << what;  // the value, as YAML
+  EXPECT_NE(what.find("pusher"), std::string::npos) << what;              // the links there are
+}
+
+TEST(FreeLinks, BadValuesAreRefusedNamingTheLink)
+{
+  const std::string ns = "/fluid_sim/fluid_sim";
+  auto parseError = [&](const std::string& yaml) {
+    return startupError([&] { readFreeLinks(yamlToParameters(yaml), ns); });
+  };
+  auto applyError = [&](const std::string& yaml) {
+    return startupError([&] {
+      std::vector<BoundaryConfig> links = robotLinks();
+      applyFreeLinks(readFreeLinks(yamlToParameters(yaml), ns), links, freeLinkScene(), ns);
+    });
+  };
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {parseError("[pusher]"), "must be a map"},
+      {parseError("{pusher: 500}"), "'pusher'"},
+      {parseError("{pusher: {densty: 500}}"), "unknown key 'densty'"},
+      {parseError("{pusher: {density: fast}}"), "density must be a number"},
+      {parseError("{pusher: {mass: 1, inertia: [1, 2]}}"), "6 numbers"},
+      {parseError("{pusher: {density: 500, linear_velocity: [1, 0]}}"), "linear_velocity must be 3 numbers"},
+      {applyError("{pusher: {density: 500, mass: 1}}"), "exactly one of density"},
+      {applyError("{pusher: {density: -500}}"), "-500"},
+      {applyError("{pusher: {mass: 1, inertia: [1, 1, 5, 0, 0, 0]}}"), "inertia"},
+      {applyError("{tank: {density: 500}}"), "container"},
+  };
+  for (const auto& [what, phrase] : cases)
+  {
+    EXPECT_NE(what.find(phrase), std::string::npos) << "'" << phrase << "' not in: " << what;
+    EXPECT_NE(what.find(ns + "/free_links"), std::string::npos) << what;
+  }
+}
+
+TEST(FreeLinks, AFreeLinkKeepsItsLinkNameAsItsFrameAndIsOnTf)
+{
+  SceneConfig scene = io::parseScene(R"yaml(
+spacing: 0.02
+domain: {min: [-0.5, -0.5, -0.5], max: [0.5, 0.5, 0.5]}
+fluid:
+  - box: {min: [-0.1, -0.1, -0.1], max: [0.1, 0.1, 0.0]}
+boundaries:
+  - name: raft
+    box: {min: [-0.03, -0.03, -0.01], max: [0.03, 0.03, 0.01]}
+    pose: {xyz: [0, 0, 0.2]}
+    dynamic: {density: 500}
+)yaml",
+                                     "scene.yaml");
+  std::vector<BoundaryConfig> links = robotLinks();
+  links.erase(links.begin());  // the pusher only
+  applyFreeLinks(readFreeLinks(yamlToParameters("{pusher: {density: 500}}"), "/n"), links, scene, "/n");
+  scene.boundaries.push_back(links[0]);
+  const Simulation sim(scene);
+  const std::vector<BodyTopic> t = bodyTopics(sim, {"pusher"});
+  ASSERT_EQ(t.size(), 2u);
+  EXPECT_EQ(t[0].frame, "fluid_sim/raft");
+  EXPECT_TRUE(t[0].free);
+  EXPECT_TRUE(t[0].moving);
+  EXPECT_EQ(t[1].frame, "pusher");
+  EXPECT_TRUE(t[1].free);
+  EXPECT_TRUE(t[1].moving);  // the node broadcasts it on /tf
+  const fluid_msgs::FreeBody m = toFreeBody(sim.body(1));
+  EXPECT_EQ(m.name, "pusher");
+  EXPECT_NEAR(m.mass, 500.0 * 0.08 * 0.08 * 0.08, 1e-6);
+  EXPECT_DOUBLE_EQ(m.pose.position.z, 0.1);
+  EXPECT_DOUBLE_EQ(m.center_of_mass.z, 0.1);
+  EXPECT_DOUBLE_EQ(m.pose.orientation.w, 1.0);
+}

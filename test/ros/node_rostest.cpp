@@ -1,5 +1,5 @@
-// rostest checks of fluid_sim_node (tank.test, pusher.test, errors.test choose the suite with
-// --gtest_filter). Each .test file starts its own master; this process is one more ROS node.
+// rostest checks of fluid_sim_node (tank.test, pusher.test, errors.test, free_body.test, ...
+// choose the suite with --gtest_filter). Each .test file starts its own master; this process is one more ROS node.
 #include <fcntl.h>
 #include <signal.h>
 #include <spawn.h>
@@ -32,6 +32,7 @@
 #include <tf2_ros/transform_listener.h>
 
 #include "fluid_msgs/ContactWrenchArray.h"
+#include "fluid_msgs/FreeBodyArray.h"
 #include "fluid_msgs/ProbeArray.h"
 #include "fluid_msgs/RegionState.h"
 #include "fluid_msgs/SolverStats.h"
@@ -773,6 +774,106 @@ TEST(Names, SceneBodyWrenchesAreStampedInFramesOnTf)
   const geometry_msgs::TransformStamped tank = buffer.lookupTransform("world", "fluid_sim/tank", ros::Time(0));
   EXPECT_DOUBLE_EQ(tank.transform.translation.x, 0.0);
   EXPECT_DOUBLE_EQ(tank.transform.rotation.w, 1.0);
+}
+
+// ------------------------------------------------------------------------------ free_body.test
+// The URDF link `raft` (0.1 x 0.1 x 0.05 m, ~free_links density 500 kg/m^3) floats on water whose
+// surface is at z = 0, where its centre starts; the node runs in step with ROS time.
+
+TEST(FreeBody, FloatsIsPublishedOnTfAndResetPutsItBack)
+{
+  tf2_ros::Buffer buffer;
+  tf2_ros::TransformListener listener(buffer);
+  auto first = waitFor<fluid_msgs::FreeBodyArray>("/fluid_sim/free_bodies", 60.0);
+  ASSERT_TRUE(first) << "nothing on /fluid_sim/free_bodies";
+  ASSERT_EQ(first->bodies.size(), 1u);
+  EXPECT_EQ(first->header.frame_id, "world");
+  EXPECT_EQ(first->bodies[0].name, "raft");
+  EXPECT_NEAR(first->bodies[0].mass, 500.0 * 0.1 * 0.1 * 0.05, 1e-6);  // kg
+
+  // About a second of simulated time: the centre of mass stays within a few cm of z = 0. Every
+  // message is taken (persistent subscriptions: one waitForMessage each costs a connection).
+  ros::NodeHandle nh;
+  std::mutex mutex;
+  double z_lo = 1e9, z_hi = -1e9, t = 0.0;
+  int messages = 0;
+  ros::Subscriber bodies_sub = nh.subscribe<fluid_msgs::FreeBodyArray>(
+      "/fluid_sim/free_bodies", 100, [&](const fluid_msgs::FreeBodyArray::ConstPtr& m) {
+        std::lock_guard<std::mutex> lock(mutex);
+        if (m->bodies.size() != 1) return;
+        z_lo = std::min(z_lo, m->bodies[0].center_of_mass.z);
+        z_hi = std::max(z_hi, m->bodies[0].center_of_mass.z);
+        ++messages;
+      });
+  ros::Subscriber stats_sub =
+      nh.subscribe<fluid_msgs::SolverStats>("/fluid_sim/stats", 100, [&](const fluid_msgs::SolverStats::ConstPtr& m) {
+        std::lock_guard<std::mutex> lock(mutex);
+        t = std::max(t, m->sim_time);
+      });
+  const ros::WallTime start = ros::WallTime::now();
+  const double t_start = [&] {
+    ros::WallDuration(0.2).sleep();
+    std::lock_guard<std::mutex> lock(mutex);
+    return t;
+  }();
+  while ((ros::WallTime::now() - start).toSec() < waitSeconds(60.0))
+  {
+    {
+      std::lock_guard<std::mutex> lock(mutex);
+      if (t >= t_start + 1.0) break;
+    }
+    ros::WallDuration(0.05).sleep();
+  }
+  bodies_sub.shutdown();
+  stats_sub.shutdown();
+  std::unique_lock<std::mutex> lock(mutex);
+  std::printf("raft: centre of mass z in [%.4f, %.4f] m over %d messages, t = %.3f to %.3f s (%.1f s wall)\n", z_lo,
+              z_hi, messages, t_start, t, (ros::WallTime::now() - start).toSec());
+  EXPECT_GE(messages, 5);
+  EXPECT_GE(t, t_start + 1.0);
+  EXPECT_GT(z_lo, -0.03);
+  EXPECT_LT(z_hi, 0.03);
+  lock.unlock();
+
+  // Its frame is on tf, a child of the fixed frame, at the pose of the messages.
+  std::string why;
+  EXPECT_TRUE(buffer.canTransform("world", "raft", ros::Time(0), ros::Duration(waitSeconds(5.0)), &why)) << why;
+  const geometry_msgs::TransformStamped tf = buffer.lookupTransform("world", "raft", ros::Time(0));
+  EXPECT_LT(std::abs(tf.transform.translation.z), 0.05);
+
+  // Reset (paused, so nothing moves it after): back at its URDF pose, the fixed frame's origin.
+  std_srvs::SetBool pause;
+  pause.request.data = true;
+  ASSERT_TRUE(ros::service::call("/fluid_sim/pause", pause));
+  std_srvs::Trigger reset;
+  ASSERT_TRUE(ros::service::call("/fluid_sim/reset", reset));
+  EXPECT_TRUE(reset.response.success) << reset.response.message;
+  fluid_msgs::FreeBodyArray after;
+  bool got = false;
+  ros::Subscriber sub = nh.subscribe<fluid_msgs::FreeBodyArray>("/fluid_sim/free_bodies", 10,
+                                                                [&](const fluid_msgs::FreeBodyArray::ConstPtr& m) {
+                                                                  after = *m;
+                                                                  got = true;
+                                                                });
+  ros::WallDuration(0.5).sleep();  // the subscription connects
+  fluid_msgs::StepSimulation step;
+  step.request.steps = 1;
+  ASSERT_TRUE(ros::service::call("/fluid_sim/step", step));
+  ASSERT_TRUE(step.response.success) << step.response.message;
+  EXPECT_LT(step.response.sim_time, 0.01);
+  const ros::WallTime wait = ros::WallTime::now();
+  while (!got && (ros::WallTime::now() - wait).toSec() < waitSeconds(10.0)) ros::WallDuration(0.05).sleep();
+  ASSERT_TRUE(got) << "no free_bodies message after the step";
+  ASSERT_EQ(after.bodies.size(), 1u);
+  const auto& p = after.bodies[0].pose;
+  std::printf("after reset and one step: raft at (%.5f, %.5f, %.5f) m, orientation w %.6f\n", p.position.x,
+              p.position.y, p.position.z, p.orientation.w);
+  EXPECT_NEAR(p.position.x, 0.0, 1e-3);
+  EXPECT_NEAR(p.position.y, 0.0, 1e-3);
+  EXPECT_NEAR(p.position.z, 0.0, 1e-3);  // one step (at most 4 ms) moves it far less than a mm
+  EXPECT_NEAR(std::abs(p.orientation.w), 1.0, 1e-4);
+  pause.request.data = false;
+  EXPECT_TRUE(ros::service::call("/fluid_sim/pause", pause));
 }
 
 // ------------------------------------------------------------------------------ errors.test

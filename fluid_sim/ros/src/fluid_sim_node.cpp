@@ -88,7 +88,11 @@ struct FluidSimNode::Impl
         opt.real_time_factor);
 
     // Before the threads: a name clash is a start-up error.
-    const std::vector<BodyTopic> bodies = bodyTopics(sim);
+    const std::vector<BodyTopic> bodies = bodyTopics(sim, loop.freeLinkNames());
+    for (const BodyTopic& b : bodies)
+      if (b.free)
+        ROS_INFO("free body '%s': frame '%s' on /tf, its state on %s", b.name.c_str(), b.frame.c_str(),
+                 nh.resolveName("free_bodies").c_str());
     for (const BodyTopic& b : bodies)
       if (b.topic != "wrench/" + b.name)
         ROS_WARN("body '%s': its wrench is published on %s ('%s' is not a valid ROS name)", b.name.c_str(),

@@ -138,6 +138,35 @@ Pose toPose(const geometry_msgs::Transform& transform)
   return Pose::fromTranslationQuaternion(Vec3d(t.x, t.y, t.z), q.w, q.x, q.y, q.z);
 }
 
+fluid_msgs::FreeBody toFreeBody(const BodyInfo& body)
+{
+  fluid_msgs::FreeBody m;
+  m.name = body.name;
+  m.pose.position.x = body.pose.translation.x();
+  m.pose.position.y = body.pose.translation.y();
+  m.pose.position.z = body.pose.translation.z();
+  const Eigen::Quaterniond q = body.pose.rotation.normalized();
+  m.pose.orientation.w = q.w();
+  m.pose.orientation.x = q.x();
+  m.pose.orientation.y = q.y();
+  m.pose.orientation.z = q.z();
+  m.center_of_mass.x = body.center_of_mass.x();
+  m.center_of_mass.y = body.center_of_mass.y();
+  m.center_of_mass.z = body.center_of_mass.z();
+  m.twist.linear.x = body.com_velocity.x();
+  m.twist.linear.y = body.com_velocity.y();
+  m.twist.linear.z = body.com_velocity.z();
+  m.twist.angular.x = body.angular_velocity.x();
+  m.twist.angular.y = body.angular_velocity.y();
+  m.twist.angular.z = body.angular_velocity.z();
+  m.fluid_wrench = toWrench(body.force, body.torque_com);
+  m.contact_force.x = body.contact_force.x();
+  m.contact_force.y = body.contact_force.y();
+  m.contact_force.z = body.contact_force.z();
+  m.mass = body.mass;
+  return m;
+}
+
 geometry_msgs::TransformStamped toTransformStamped(const Pose& pose, const std::string& parent,
                                                    const std::string& child, const ros::Time& stamp)
 {

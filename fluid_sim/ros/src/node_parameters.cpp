@@ -1,6 +1,7 @@
 #include "fluid_sim/ros/node_parameters.h"
 
 #include <algorithm>
+#include <array>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
@@ -27,9 +28,9 @@ namespace ros_bridge
 const std::set<std::string>& nodeKeys()
 {
   static const std::set<std::string> keys = {
-      "scene_file", "robot_description_param", "fixed_frame", "links", "container_links", "real_time_factor",
-      "publish_rate", "max_points", "tf_delay", "tf_wait_timeout", "stop_after", "threads", "publish_boundary",
-      "wrench_window",
+      "scene_file", "robot_description_param", "fixed_frame", "links", "container_links", "free_links",
+      "real_time_factor", "publish_rate", "max_points", "tf_delay", "tf_wait_timeout", "stop_after", "threads",
+      "publish_boundary", "wrench_window",
       // dynamic_reconfigure (cfg/FluidSim.cfg)
       "density_error", "divergence_error", "min_iterations", "max_iterations", "warm_start", "viscosity_model",
       "viscosity_coefficient", "boundary_viscosity", "groups"};
@@ -227,6 +228,137 @@ XmlRpc::XmlRpcValue yamlToParameters(const std::string& yaml_text)
   }
 }
 
+namespace
+{
+/// A number parameter (rosparam makes 500 an int, 500.0 a double).
+bool asNumber(XmlRpc::XmlRpcValue& v, double& out)
+{
+  if (v.getType() == XmlRpc::XmlRpcValue::TypeDouble)
+    out = static_cast<double>(v);
+  else if (v.getType() == XmlRpc::XmlRpcValue::TypeInt)
+    out = static_cast<int>(v);
+  else
+    return false;
+  return true;
+}
+
+/// A list of exactly N numbers.
+template <std::size_t N>
+bool asNumbers(XmlRpc::XmlRpcValue& v, std::array<double, N>& out)
+{
+  if (v.getType() != XmlRpc::XmlRpcValue::TypeArray || v.size() != static_cast<int>(N)) return false;
+  for (std::size_t k = 0; k < N; ++k)
+    if (!asNumber(v[static_cast<int>(k)], out[k])) return false;
+  return true;
+}
+
+std::string yamlOrPlaceholder(const XmlRpc::XmlRpcValue& v)
+{
+  try
+  {
+    return toYaml(v);
+  }
+  catch (const std::invalid_argument&)
+  {
+    return "(a value that is no YAML)";
+  }
+}
+}  // namespace
+
+std::vector<FreeLinkOption> readFreeLinks(const XmlRpc::XmlRpcValue& value, const std::string& ns)
+{
+  const std::string param = "parameter " + ns + "/free_links";
+  auto& all = const_cast<XmlRpc::XmlRpcValue&>(value);  // accessors are non-const; nothing is changed
+  if (all.getType() != XmlRpc::XmlRpcValue::TypeStruct)
+    throw StartupError(param + " = " + yamlOrPlaceholder(all) +
+                       ": must be a map {link: {density: kg/m^3}} (or {link: {mass: kg, ...}})");
+  std::vector<FreeLinkOption> out;
+  for (auto it = all.begin(); it != all.end(); ++it)
+  {
+    FreeLinkOption f;
+    f.link = it->first;
+    XmlRpc::XmlRpcValue& entry = it->second;
+    f.text = yamlOrPlaceholder(entry);
+    auto bad = [&](const std::string& why) {
+      throw StartupError(param + ": link '" + f.link + "' = " + f.text + ": " + why);
+    };
+    if (entry.getType() != XmlRpc::XmlRpcValue::TypeStruct)
+      bad("must be a map with density (kg/m^3) or mass (kg), as a scene body's dynamic key");
+    DynamicConfig& d = f.dynamic;
+    d.enabled = true;
+    for (auto k = entry.begin(); k != entry.end(); ++k)
+    {
+      const std::string& key = k->first;
+      XmlRpc::XmlRpcValue& v = k->second;
+      std::array<double, 3> v3{};
+      if (key == "density" || key == "mass")
+      {
+        if (!asNumber(v, key == "density" ? d.density : d.mass)) bad(key + " must be a number");
+      }
+      else if (key == "inertia")
+      {
+        std::array<double, 6> i{};
+        if (!asNumbers(v, i)) bad("inertia must be 6 numbers [ixx, iyy, izz, ixy, ixz, iyz] (kg m^2)");
+        d.inertia = i;
+      }
+      else if (key == "center_of_mass" || key == "linear_velocity" || key == "angular_velocity")
+      {
+        if (!asNumbers(v, v3)) bad(key + " must be 3 numbers [x, y, z]");
+        const Vec3d x(v3[0], v3[1], v3[2]);
+        if (key == "center_of_mass")
+          d.center_of_mass = x;  // m, link frame
+        else if (key == "linear_velocity")
+          d.linear_velocity = x;  // m/s, fixed frame
+        else
+          d.angular_velocity = x;  // rad/s, fixed frame
+      }
+      else
+        bad("unknown key '" + key +
+            "' (keys: density, mass, inertia, center_of_mass, linear_velocity, angular_velocity)");
+    }
+    out.push_back(std::move(f));
+  }
+  return out;
+}
+
+void applyFreeLinks(const std::vector<FreeLinkOption>& free, std::vector<BoundaryConfig>& links,
+                    const SceneConfig& scene, const std::string& ns)
+{
+  const std::string param = "parameter " + ns + "/free_links";
+  for (const FreeLinkOption& f : free)
+  {
+    auto bad = [&](const std::string& why) {
+      throw StartupError(param + ": link '" + f.link + "' = " + f.text + ": " + why);
+    };
+    const auto body =
+        std::find_if(links.begin(), links.end(), [&](const BoundaryConfig& b) { return b.name == f.link; });
+    if (body == links.end())
+    {
+      std::string names;
+      for (const BoundaryConfig& b : links) names += (names.empty() ? "" : ", ") + b.name;
+      bad("is not among the links used (" + std::to_string(links.size()) +
+          " links with collision geometry: " + (names.empty() ? "none" : names) + ")");
+    }
+    if (body->inside) bad("is a container (~container_links): a container cannot be a free body");
+    body->externally_posed = false;
+    body->dynamic = f.dynamic;
+    // The same checks as a scene body's dynamic key (core validate()), on the link alone.
+    SceneConfig check = scene;
+    check.boundaries = {*body};
+    try
+    {
+      validate(check);
+    }
+    catch (const ConfigError& e)
+    {
+      // The key below the link's dynamic entry ("inertia"), if the fault is in one.
+      const std::string& key = e.key();
+      const std::size_t at = key.find(".dynamic.");
+      bad((at == std::string::npos ? "" : key.substr(at + 9) + ": ") + e.message());
+    }
+  }
+}
+
 NodeParameters readNodeParameters(const ros::NodeHandle& pnh)
 {
   NodeParameters p;
@@ -286,6 +418,11 @@ NodeOptions readNodeOptions(const NodeParameters& params)
   r.read("threads", opt.threads);
   r.read("publish_boundary", opt.publish_boundary);
   r.read("wrench_window", opt.wrench_window);
+  if (params.values.getType() == XmlRpc::XmlRpcValue::TypeStruct && params.values.hasMember("free_links"))
+  {
+    auto& values = const_cast<XmlRpc::XmlRpcValue&>(params.values);  // accessors are non-const
+    opt.free_links = readFreeLinks(values["free_links"], params.ns);
+  }
   checkNodeOptions(opt, params.ns);
   return opt;
 }
@@ -331,6 +468,10 @@ std::vector<BoundaryConfig> readRobotLinks(const ros::NodeHandle& nh, const ros:
     if (!opt.links.empty())
       throw StartupError("parameter " + pnh.getNamespace() +
                          "/links is set but robot_description_param is empty (no robot to take them from)");
+    if (!opt.free_links.empty())
+      throw StartupError("parameter " + pnh.getNamespace() + "/free_links: link '" + opt.free_links.front().link +
+                         "' = " + opt.free_links.front().text +
+                         ": robot_description_param is empty (no robot to take it from)");
     ROS_INFO("robot_description_param is empty: no robot links, only the scene's own bodies");
     return {};
   }
@@ -379,6 +520,7 @@ std::vector<BoundaryConfig> readRobotLinks(const ros::NodeHandle& nh, const ros:
         if (s.name == b.name)
           throw StartupError("link '" + b.name + "' has the same name as a body of the scene; rename the scene body");
     }
+    applyFreeLinks(opt.free_links, links, scene, pnh.getNamespace());
     return links;
   }
   catch (const ConfigError& e)

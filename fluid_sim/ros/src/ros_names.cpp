@@ -35,7 +35,7 @@ std::string rosBaseName(const std::string& name)
   return out;
 }
 
-std::vector<BodyTopic> bodyTopics(const Simulation& sim)
+std::vector<BodyTopic> bodyTopics(const Simulation& sim, const std::set<std::string>& free_links)
 {
   std::vector<BodyTopic> topics;
   std::map<std::string, std::string> owner;  // topic -> body name
@@ -49,8 +49,10 @@ std::vector<BodyTopic> bodyTopics(const Simulation& sim)
     for (const BoundaryConfig& c : sim.scene().boundaries)
       if (c.name == b.name) from_tf = c.externally_posed;
     t.scene_body = !from_tf;
-    t.frame = from_tf ? b.name : kSceneBodyFramePrefix + b.name;
+    // A free link keeps its link name: it is the robot's frame, only the node moves it now.
+    t.frame = from_tf || free_links.count(b.name) ? b.name : kSceneBodyFramePrefix + b.name;
     t.moving = t.scene_body && b.moving;
+    t.free = b.free;
     const auto [it, inserted] = owner.emplace(t.topic, b.name);
     if (!inserted)
       throw StartupError(

@@ -45,7 +45,16 @@ void SolverLoop::setScene(SceneConfig scene, std::vector<BoundaryConfig> link_bo
 std::vector<std::string> SolverLoop::linkNames() const
 {
   std::vector<std::string> names;
-  for (const BoundaryConfig& b : link_configs_) names.push_back(b.name);
+  for (const BoundaryConfig& b : link_configs_)
+    if (!b.dynamic.enabled) names.push_back(b.name);
+  return names;
+}
+
+std::set<std::string> SolverLoop::freeLinkNames() const
+{
+  std::set<std::string> names;
+  for (const BoundaryConfig& b : link_configs_)
+    if (b.dynamic.enabled) names.insert(b.name);
   return names;
 }
 
@@ -54,7 +63,9 @@ void SolverLoop::build(const std::map<std::string, Pose>& poses)
   SceneConfig scene = base_scene_;
   for (BoundaryConfig b : link_configs_)
   {
-    b.pose = poses.at(b.name);
+    // A free link (~free_links) starts, at every build, from its URDF pose (readRobotLinks); tf
+    // would give back only where the node itself last put it.
+    if (!b.dynamic.enabled) b.pose = poses.at(b.name);
     scene.boundaries.push_back(std::move(b));
   }
   // The poses are tf's newest now; the construction (the fill's relaxation: up to seconds) takes
@@ -99,6 +110,7 @@ void SolverLoop::build(const std::map<std::string, Pose>& poses)
   wrench_means_.setWindow(opt_.wrench_window);
   sim_time_ = sim_->time();  // build() runs before start() or under cmd_mutex_ (reset)
   boundary_dirty_ = true;
+  last_frame_sim_ = -1.0;
   reanchor_ = true;
   rtf_sim0_ = 0.0;
   rtf_wall0_ = WallClock::now();
@@ -403,7 +415,9 @@ void SolverLoop::run()
     {
       ROS_ERROR("simulation unstable at t = %.4f s: %s. Paused; call ~reset to start again.", rep.time,
                 rep.reason.c_str());
-      publishFrame(rep, frame_rtf);
+      // Not twice for one step (afterStep may have published it): a second transform of a moving
+      // or free body at the same stamp is TF_REPEATED_DATA to every tf listener.
+      if (last_frame_sim_ != sim_->time()) publishFrame(rep, frame_rtf);
       std::lock_guard<std::mutex> lock(cmd_mutex_);
       paused_ = true;
       steps_requested_ = 0;
@@ -418,7 +432,9 @@ void SolverLoop::run()
     }
     if (opt_.stop_after > 0.0 && !finished && sim_->time() >= opt_.stop_after - 1e-9)
     {
-      publishFrame(rep, frame_rtf);
+      // Not twice for one step (afterStep may have published it): a second transform of a moving
+      // or free body at the same stamp is TF_REPEATED_DATA to every tf listener.
+      if (last_frame_sim_ != sim_->time()) publishFrame(rep, frame_rtf);
       finished = true;
       printSummary();
       if (on_finished_) on_finished_(0);
@@ -542,6 +558,7 @@ void SolverLoop::afterStep(const StepReport& rep, double paced_rtf)
 void SolverLoop::publishFrame(const StepReport& rep, double paced_rtf)
 {
   const auto t0 = WallClock::now();
+  last_frame_sim_ = sim_->time();
   Frame& f = publishers_.back();
   f.stamp = paced_rtf > 0.0 ? rosInstant(sim_->time(), paced_rtf) : ros::Time::now();
   f.fluid.positions = sim_->positions();
@@ -559,7 +576,15 @@ void SolverLoop::publishFrame(const StepReport& rep, double paced_rtf)
     boundary_dirty_ = false;
   }
   f.body_poses.resize(sim_->numBodies());
-  for (std::size_t k = 0; k < sim_->numBodies(); ++k) f.body_poses[k] = sim_->body(k).pose;
+  f.free_bodies.bodies.clear();
+  f.free_bodies.header.stamp = f.stamp;
+  f.free_bodies.header.frame_id = opt_.fixed_frame;
+  for (std::size_t k = 0; k < sim_->numBodies(); ++k)
+  {
+    const BodyInfo b = sim_->body(k);
+    f.body_poses[k] = b.pose;
+    if (b.free) f.free_bodies.bodies.push_back(toFreeBody(b));
+  }
   f.wrenches.header.stamp = f.stamp;
   f.wrenches.header.frame_id = opt_.fixed_frame;
   wrench_means_.take(*sim_, f.wrenches.wrenches);

@@ -13,6 +13,7 @@
 #include <sensor_msgs/PointCloud2.h>
 
 #include "fluid_msgs/ContactWrench.h"
+#include "fluid_msgs/FreeBody.h"
 #include "fluid_msgs/Probe.h"
 #include "fluid_msgs/RegionState.h"
 #include "fluid_msgs/SolverStats.h"
@@ -61,6 +62,11 @@ geometry_msgs::Wrench toWrench(const Vec3d& force, const Vec3d& torque);
 /// `body`.
 fluid_msgs::ContactWrench toContactWrench(const BodyInfo& body, const Vec3d& force, const Vec3d& torque,
                                           double max_pressure);
+
+/// A free body's state (BodyInfo::free) as a message, every vector in the world (fixed) frame:
+/// the body frame's pose, the centre of mass and its velocity, the angular velocity, the fluid's
+/// force and torque about the centre of mass, the contact force, the mass.
+fluid_msgs::FreeBody toFreeBody(const BodyInfo& body);
 
 /// A region's measurement (scene key regions) as a message; the header is the caller's.
 fluid_msgs::RegionState toRegionState(const RegionMeasurement& region);

@@ -18,6 +18,14 @@ namespace fluid_sim
 {
 namespace ros_bridge
 {
+/// One entry of ~free_links: a URDF link the simulation moves as a free body.
+struct FreeLinkOption
+{
+  std::string link;
+  DynamicConfig dynamic;  // as a scene body's `dynamic` key (enabled = true)
+  std::string text;       // the entry's value as YAML, for messages
+};
+
 /// The node's own private parameters; every other private parameter is a scene key.
 struct NodeOptions
 {
@@ -25,6 +33,7 @@ struct NodeOptions
   std::string fixed_frame = "world";
   std::vector<std::string> links;            // empty = every link with collision geometry
   std::vector<std::string> container_links;  // links that hold water (inside: true)
+  std::vector<FreeLinkOption> free_links;    // links that are free bodies, by link name
   double real_time_factor = 1.0;             // 1 (simulated s per ROS s); 1 = tf-coupled, 0 = as fast as it can
   double publish_rate = 30.0;                // Hz
   int max_points = 0;                        // points, particles cloud size limit; 0 = all
@@ -85,6 +94,20 @@ NodeParameters readNodeParameters(const ros::NodeHandle& pnh);
 /// The node's options from `params` (defaults for absent ones), type- and range-checked.
 /// Throws StartupError naming the parameter.
 NodeOptions readNodeOptions(const NodeParameters& params);
+
+/// ~free_links, a map {link: {density | mass, inertia, center_of_mass, linear_velocity,
+/// angular_velocity}} (the keys and units of a scene body's `dynamic`), read and type-checked.
+/// Throws StartupError naming the parameter (under namespace `ns`), the link and the value.
+std::vector<FreeLinkOption> readFreeLinks(const XmlRpc::XmlRpcValue& value, const std::string& ns);
+
+/// Makes the links named in `free` free bodies among `links` (the robot's bodies): not posed
+/// from tf any more (externally_posed false), their `dynamic` set, starting from the pose they
+/// have in `links` (the URDF's, with every joint at 0 and the root link at the fixed frame's
+/// origin). The values are checked as the scene's `dynamic` is (with `scene`'s settings). An
+/// unknown link, a container link or a bad value throws StartupError naming the parameter (under
+/// namespace `ns`), the link and the value.
+void applyFreeLinks(const std::vector<FreeLinkOption>& free, std::vector<BoundaryConfig>& links,
+                    const SceneConfig& scene, const std::string& ns);
 
 /// The scene from the keys of `params` that are not in nodeKeys(), checked by the scene loader;
 /// relative file names in it resolve against the scene file's folder (the working directory

@@ -1,8 +1,9 @@
 #pragma once
 // Publishers of the node's topics (particles, boundary_particles, contact_wrenches,
-// wrench/<body>, stats, and the scene's instruments: regions/<region>, probes) and of the scene bodies' tf frames, and
-// their thread. The solver thread fills a Frame between steps and hands it over; the publisher thread turns it into
-// messages (through the converter, messages.h). A slow publisher drops frames; it never blocks the solver.
+// wrench/<body>, free_bodies, stats, and the scene's instruments: regions/<region>, probes) and of the scene bodies'
+// and free bodies' tf frames, and their thread. The solver thread fills a Frame between steps and hands it over; the
+// publisher thread turns it into messages (through the converter, messages.h). A slow publisher drops frames; it never
+// blocks the solver.
 
 #include <atomic>
 #include <condition_variable>
@@ -21,6 +22,7 @@
 #include <tf2_ros/transform_broadcaster.h>
 
 #include "fluid_msgs/ContactWrenchArray.h"
+#include "fluid_msgs/FreeBodyArray.h"
 #include "fluid_msgs/ProbeArray.h"
 #include "fluid_msgs/RegionState.h"
 #include "fluid_msgs/SolverStats.h"
@@ -44,7 +46,8 @@ struct Frame
   std::vector<Real> boundary_pressure;                           // Pa
   std::vector<std::pair<std::size_t, std::size_t>> body_ranges;  // (first, count) per body
   fluid_msgs::ContactWrenchArray wrenches;
-  std::vector<Pose> body_poses;  // body -> fixed frame (m), per body (moving scene bodies go on tf)
+  std::vector<Pose> body_poses;           // body -> fixed frame (m), per body (moving scene bodies go on tf)
+  fluid_msgs::FreeBodyArray free_bodies;  // the free bodies' state; no bodies for a scene without any
   fluid_msgs::SolverStats stats;
   // The instruments (scene keys regions, probes), measured when the frame was taken; empty for a
   // scene without them.
@@ -132,8 +135,9 @@ public:
 
   /// Advertises the topics in `nh` (the node's namespace, so that they are remapped as users
   /// expect), with one wrench topic per body, one regions/<name> topic per region of the scene
-  /// and, for a scene with probes or a spill key, the probes and spill topics, and publishes the frames of the scene
-  /// bodies that do not move on /tf_static (their poses in `sim`). Moving scene bodies go on /tf with each frame.
+  /// and, for a scene with probes or a spill key, the probes and spill topics, free_bodies for a scene with free
+  /// bodies, and publishes the frames of the scene bodies that do not move on /tf_static (their poses in `sim`).
+  /// Moving scene bodies and free bodies (scene bodies or links) go on /tf with each frame.
   void advertise(ros::NodeHandle& nh, const std::vector<BodyTopic>& bodies, const Simulation& sim);
 
   /// Most points in the particles cloud (0 = all); may change while running.
@@ -175,6 +179,7 @@ private:
   std::vector<ros::Publisher> pub_regions_;      // per region, regions/<name>
   ros::Publisher pub_probes_;                    // probes, for a scene with probes
   ros::Publisher pub_spill_;                     // spill, for a scene with a spill key
+  ros::Publisher pub_free_;                      // free_bodies, for a scene with free bodies
   std::vector<BodyTopic> bodies_;                // per body: topic and wrench frame
   std::unique_ptr<tf2_ros::TransformBroadcaster> tf_;
   std::unique_ptr<tf2_ros::StaticTransformBroadcaster> tf_static_;

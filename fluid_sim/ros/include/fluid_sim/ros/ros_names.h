@@ -3,6 +3,7 @@
 // valid ROS name) and the tf frame its wrench is expressed in (a URDF link's own frame; for a
 // scene body, a frame the node publishes itself).
 
+#include <set>
 #include <string>
 #include <vector>
 
@@ -30,12 +31,15 @@ struct BodyTopic
   std::string topic;        // its wrench topic, relative to the node's namespace: wrench/<rosBaseName(name)>
   std::string frame;        // tf frame of its wrench: the link, or kSceneBodyFramePrefix + name
   bool scene_body = false;  // not posed from tf: the node publishes `frame` itself
-  bool moving = false;      // a scene body with scripted motion (its frame goes on /tf every frame)
+  bool moving = false;      // a scene body with scripted motion or a free body (its frame goes on /tf every frame)
+  bool free = false;        // a free body (BodyInfo::free): it is on the free_bodies topic
 };
 
-/// One BodyTopic per body of `sim`, in body order. Throws StartupError naming both bodies when
-/// two names give the same topic (e.g. "a-b" and "a b").
-std::vector<BodyTopic> bodyTopics(const Simulation& sim);
+/// One BodyTopic per body of `sim`, in body order. `free_links`: the URDF links that are free
+/// bodies (~free_links); the simulation moves them, so the node publishes their frames itself,
+/// under the link's own name (a scene body's is kSceneBodyFramePrefix + name). Throws
+/// StartupError naming both bodies when two names give the same topic (e.g. "a-b" and "a b").
+std::vector<BodyTopic> bodyTopics(const Simulation& sim, const std::set<std::string>& free_links = {});
 
 }  // namespace ros_bridge
 }  // namespace fluid_sim

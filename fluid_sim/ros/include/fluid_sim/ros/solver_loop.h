@@ -14,6 +14,7 @@
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <set>
 #include <string>
 #include <thread>
 #include <utility>
@@ -54,8 +55,10 @@ public:
   /// settings start from the node options.
   void setScene(SceneConfig scene, std::vector<BoundaryConfig> link_bodies);
 
-  /// Names of the links posed from tf.
+  /// Names of the links posed from tf (not the free ones).
   std::vector<std::string> linkNames() const;
+  /// Names of the links that are free bodies (~free_links): the simulation moves them.
+  std::set<std::string> freeLinkNames() const;
 
   /// Builds the simulation with the link bodies at `poses`. Throws StartupError.
   void build(const std::map<std::string, Pose>& poses);
@@ -179,7 +182,8 @@ private:
   double rtf_measured_ = 0.0;  // simulated s per wall s
 
   // Solver-thread state: frames.
-  bool boundary_dirty_ = true;                                    // the boundary cloud must be (re)published
+  bool boundary_dirty_ = true;    // the boundary cloud must be (re)published
+  double last_frame_sim_ = -1.0;  // s, simulated time of the last frame published (-1: none since the build)
   std::vector<std::pair<std::size_t, std::size_t>> body_ranges_;  // boundary particles of each body
   WrenchMeans wrench_means_;
   // The scene's instruments, measured once per published frame; null for a scene without any.
