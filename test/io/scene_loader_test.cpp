@@ -704,4 +704,23 @@ TEST(SceneLoader, UrdfFreeLinks)
   expectError(boatScene(urdf, "") + "    dynamic: {density: 500}\n", "boundaries[0].dynamic", "urdf.free_links");
 }
 
+TEST(SceneLoader, SinksAreReadAsRegionsAndABodySinkIsRefused)
+{
+  const SceneConfig s =
+      parseScene(kBase +
+                     "sinks:\n"
+                     "  - {name: drain, box: {min: [0, 0, 0], max: [0.1, 0.1, 0.05]}, pose: {xyz: [1, 0, 0]}}\n"
+                     "  - {name: funnel, sphere: {center: [0, 0, -1], radius: 0.2}}\n",
+                 "scene.yaml");
+  ASSERT_EQ(s.sinks.size(), 2u);
+  EXPECT_EQ(s.sinks[0].name, "drain");
+  EXPECT_EQ(s.sinks[0].shape, RegionShape::Box);
+  EXPECT_DOUBLE_EQ(s.sinks[0].pose.translation.x(), 1.0);
+  EXPECT_EQ(s.sinks[1].shape, RegionShape::Sphere);
+  EXPECT_DOUBLE_EQ(s.sinks[1].sphere.radius, 0.2);
+  expectError(kBase + "sinks:\n  - {name: cup_drain, body: cup}\n", "sinks[0].body", "a sink is a box or a sphere");
+  expectError(kBase + "sinks:\n  - {name: d, box: {min: [0, 0, 0], max: [1, 1, 1]}, radius: 2}\n", "sinks[0].radius",
+              "unknown key");
+}
+
 }  // namespace fluid_sim
