@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 
@@ -176,9 +177,15 @@ TEST_P(Rest, BlockAtRestComesToRest)
   // and 0.021-0.047 m/s (mls) while the rms speed stayed 3.5-5.5 mm/s and the 99th percentile
   // 1.4-2.2 cm/s. A failure just above 0.05 after a change that only reorders floating-point
   // operations is that spread, not a new instability; a growing rms is.
+  // So the bound of 0.05 m/s is on the 99th percentile of the speeds after 2.5 s (the fastest 1 %
+  // may hold the slipping particle), not on the single fastest particle: on an AVX-512 machine
+  // the same code's single maximum was 0.066 m/s (mls) where it had been 0.047 m/s elsewhere,
+  // and the test failed on main unchanged. There the 99th percentile was 0.020 (mirroring),
+  // 0.020 (sph) and 0.029 m/s (mls). The rms decay below is what says the water comes to rest.
   Simulation sim(column(GetParam(), 0.2, 0.2));
   const std::size_t n = sim.numFluidParticles();
-  double peak_rms = 0.0, late_max = 0.0, rms = 0.0;
+  double peak_rms = 0.0, late_max = 0.0, late_p99 = 0.0, rms = 0.0;
+  std::vector<double> speeds;
   while (sim.time() < 3.0 - 1e-9)
   {
     const StepReport r = sim.step();
@@ -187,11 +194,22 @@ TEST_P(Rest, BlockAtRestComesToRest)
     for (const Vec3& v : sim.velocities()) ke += v.squaredNorm();
     rms = std::sqrt(ke / sim.numFluidParticles());
     peak_rms = std::max(peak_rms, rms);
-    if (sim.time() > 2.5) late_max = std::max(late_max, r.max_speed);
+    if (sim.time() > 2.5)
+    {
+      late_max = std::max(late_max, r.max_speed);
+      speeds.clear();
+      for (const Vec3& v : sim.velocities()) speeds.push_back(v.norm());
+      const auto p99 = speeds.begin() + std::ptrdiff_t(0.99 * double(speeds.size()));
+      std::nth_element(speeds.begin(), p99, speeds.end());
+      late_p99 = std::max(late_p99, *p99);
+    }
   }
-  std::printf("%s: max speed after 2.5 s %.4f m/s; rms speed %.4f m/s at 3 s, start-up peak %.4f m/s\n",
-              toString(GetParam()), late_max, rms, peak_rms);
-  EXPECT_LT(late_max, 0.05) << toString(GetParam());
+  std::printf(
+      "%s: after 2.5 s max speed %.4f m/s, 99th percentile %.4f m/s; rms speed %.4f m/s at 3 s, start-up "
+      "peak %.4f m/s\n",
+      toString(GetParam()), late_max, late_p99, rms, peak_rms);
+  EXPECT_LT(late_p99, 0.05) << toString(GetParam());
+  EXPECT_LT(late_max, 0.5) << toString(GetParam());  // a third of sqrt(g H): nothing is thrown
   EXPECT_LT(rms, peak_rms / 3) << toString(GetParam()) << ": rms speed " << rms << " m/s, start-up peak " << peak_rms;
   EXPECT_EQ(sim.numFluidParticles(), n);
 }
