@@ -836,3 +836,17 @@ boundaries:
   EXPECT_DOUBLE_EQ(m.center_of_mass.z, 0.1);
   EXPECT_DOUBLE_EQ(m.pose.orientation.w, 1.0);
 }
+
+TEST(Sinks, EachSinkBecomesAnEntryWithItsTotals)
+{
+  std::vector<SinkTotal> totals = {{"drain", 12, 12 * 1e-6, 12 * 1e-3}, {"funnel", 0, 0.0, 0.0}};
+  const fluid_msgs::SinkArray m = ros_bridge::toSinkArray(totals, ros::Time(2.5), "world");
+  EXPECT_EQ(m.header.stamp, ros::Time(2.5));
+  EXPECT_EQ(m.header.frame_id, "world");
+  ASSERT_EQ(m.sinks.size(), 2u);
+  EXPECT_EQ(m.sinks[0].name, "drain");
+  EXPECT_EQ(m.sinks[0].particles, 12u);
+  EXPECT_DOUBLE_EQ(m.sinks[0].volume, 12e-6);  // m^3
+  EXPECT_DOUBLE_EQ(m.sinks[0].mass, 12e-3);    // kg
+  EXPECT_EQ(m.sinks[1].name, "funnel");
+}

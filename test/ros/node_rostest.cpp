@@ -35,6 +35,7 @@
 #include "fluid_msgs/FreeBodyArray.h"
 #include "fluid_msgs/ProbeArray.h"
 #include "fluid_msgs/RegionState.h"
+#include "fluid_msgs/SinkArray.h"
 #include "fluid_msgs/SolverStats.h"
 #include "fluid_msgs/Spill.h"
 #include "fluid_msgs/StepSimulation.h"
@@ -276,6 +277,14 @@ TEST(Tank, PublishesRegionAndProbes)
   EXPECT_DOUBLE_EQ(spill->below, 0.5);
   EXPECT_EQ(spill->particles, 0u);
   EXPECT_EQ(spill->volume, 0.0);
+  // The drain above the water: published, nothing drained.
+  auto sinks = waitFor<fluid_msgs::SinkArray>("/fluid_sim/sinks", 10.0);
+  ASSERT_TRUE(sinks) << "no message on /fluid_sim/sinks";
+  EXPECT_EQ(sinks->header.frame_id, "world");
+  ASSERT_EQ(sinks->sinks.size(), 1u);
+  EXPECT_EQ(sinks->sinks[0].name, "overflow");
+  EXPECT_EQ(sinks->sinks[0].particles, 0u);
+  EXPECT_EQ(sinks->sinks[0].volume, 0.0);
 
   // Settled (after t = 1.5 s as the wrench test): the floor probe reads rho0 g d, averaged over
   // twenty messages (the water still sloshes a little); the air probe is dry.

@@ -113,6 +113,23 @@ fluid_msgs::RegionState toRegionState(const RegionMeasurement& m)
   return r;
 }
 
+fluid_msgs::SinkArray toSinkArray(const std::vector<SinkTotal>& sinks, const ros::Time& stamp, const std::string& frame)
+{
+  fluid_msgs::SinkArray out;
+  out.header.stamp = stamp;
+  out.header.frame_id = frame;
+  for (const SinkTotal& s : sinks)
+  {
+    fluid_msgs::Sink m;
+    m.name = s.name;
+    m.particles = static_cast<std::uint32_t>(s.particles);
+    m.volume = s.volume;
+    m.mass = s.mass;
+    out.sinks.push_back(m);
+  }
+  return out;
+}
+
 fluid_msgs::Probe toProbe(const ProbeMeasurement& m)
 {
   fluid_msgs::Probe p;

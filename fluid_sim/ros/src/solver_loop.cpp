@@ -613,6 +613,7 @@ void SolverLoop::publishFrame(const StepReport& rep, double paced_rtf)
       f.spill.mass = m.spill.mass;
     }
   }
+  f.sinks = toSinkArray(sim_->sinkTotals(), f.stamp, opt_.fixed_frame);
   f.stats = toSolverStats(rep, *sim_, rtf_measured_, paused_, last_status_);
   f.stats.header.stamp = f.stamp;
   f.stats.header.frame_id = opt_.fixed_frame;

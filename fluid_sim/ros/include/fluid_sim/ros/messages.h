@@ -16,6 +16,7 @@
 #include "fluid_msgs/FreeBody.h"
 #include "fluid_msgs/Probe.h"
 #include "fluid_msgs/RegionState.h"
+#include "fluid_msgs/SinkArray.h"
 #include "fluid_msgs/SolverStats.h"
 #include "fluid_sim/FluidSimConfig.h"
 #include "fluid_sim/core/measurements.h"
@@ -73,6 +74,10 @@ fluid_msgs::RegionState toRegionState(const RegionMeasurement& region);
 
 /// A probe's measurement (scene key probes) as a message.
 fluid_msgs::Probe toProbe(const ProbeMeasurement& probe);
+
+/// What each sink drained (Simulation::sinkTotals()), stamped and in `frame`.
+fluid_msgs::SinkArray toSinkArray(const std::vector<SinkTotal>& sinks, const ros::Time& stamp,
+                                  const std::string& frame);
 
 /// A tf transform (translation in m) as a pose, its quaternion normalised.
 Pose toPose(const geometry_msgs::Transform& transform);

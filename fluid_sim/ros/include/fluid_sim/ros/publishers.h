@@ -25,6 +25,7 @@
 #include "fluid_msgs/FreeBodyArray.h"
 #include "fluid_msgs/ProbeArray.h"
 #include "fluid_msgs/RegionState.h"
+#include "fluid_msgs/SinkArray.h"
 #include "fluid_msgs/SolverStats.h"
 #include "fluid_msgs/Spill.h"
 #include "fluid_sim/core/simulation.h"
@@ -55,6 +56,7 @@ struct Frame
   fluid_msgs::ProbeArray probes;
   bool spill_valid = false;  // the scene has a spill key
   fluid_msgs::Spill spill;
+  fluid_msgs::SinkArray sinks;  // what each sink drained so far; no sinks for a scene without any
 };
 
 /// The wrenches published: per body, the mean over a window of simulated time (body frame). One
@@ -179,6 +181,7 @@ private:
   std::vector<ros::Publisher> pub_regions_;      // per region, regions/<name>
   ros::Publisher pub_probes_;                    // probes, for a scene with probes
   ros::Publisher pub_spill_;                     // spill, for a scene with a spill key
+  ros::Publisher pub_sinks_;                     // sinks, for a scene with sinks
   ros::Publisher pub_free_;                      // free_bodies, for a scene with free bodies
   std::vector<BodyTopic> bodies_;                // per body: topic and wrench frame
   std::unique_ptr<tf2_ros::TransformBroadcaster> tf_;
