@@ -185,6 +185,10 @@ void ContactSolver::find(const BodySet& bodies, double dt)
     grid_[cellKey(x, cutoff)].push_back(std::uint32_t(j));
   }
   const double cutoff2 = cutoff * cutoff;
+  // Inverse inertias (world axes at the step's start) once per free body, not per pair.
+  std::vector<Mat3d> inv_i(bodies.size(), Mat3d::Zero());
+  for (std::size_t k = 0; k < bodies.size(); ++k)
+    if (bodies[k].free) inv_i[k] = bodies[k].inverseInertiaWorld();
   for (std::size_t a = 0; a < bodies.size(); ++a)
   {
     const Body& body = bodies[a];
@@ -220,20 +224,14 @@ void ContactSolver::find(const BodySet& bodies, double dt)
               c.rb = c.b >= 0 ? Vec3d(p - bodies[bj].centerOfMass()) : Vec3d::Zero();
               c.gap = r - distance_;
               // 1 / (1/m_a + n . ((I_a^-1 (r_a x n)) x r_a) + the same for b).
-              const Mat3d inv_ia = body.inverseInertiaWorld();
-              double k_inv = 1.0 / body.mass + c.n.dot((inv_ia * c.ra.cross(c.n)).cross(c.ra));
-              if (c.b >= 0)
-              {
-                const Body& other = bodies[bj];
-                k_inv += 1.0 / other.mass + c.n.dot((other.inverseInertiaWorld() * c.rb.cross(c.n)).cross(c.rb));
-              }
+              double k_inv = 1.0 / body.mass + c.n.dot((inv_i[a] * c.ra.cross(c.n)).cross(c.ra));
+              if (c.b >= 0) k_inv += 1.0 / bodies[bj].mass + c.n.dot((inv_i[bj] * c.rb.cross(c.n)).cross(c.rb));
               c.mass_n = 1.0 / k_inv;
               contacts_.push_back(c);
             }
           }
     }
   }
-  (void)dt;
 }
 
 void ContactSolver::apply(BodySet& bodies, double dt)
