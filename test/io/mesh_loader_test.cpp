@@ -278,6 +278,45 @@ TEST(MeshLoader, PlyHeadersAreCheckedBeforeAssimpReadsThem)
   }
 }
 
+TEST(MeshLoader, PlyListCountsAreCheckedAgainstTheirTypeAndTheFile)
+{
+  // assimp allocates a list's declared count before reading it: an ASCII face whose count was
+  // 42949672951 asked for 32 GB (fuzz_mesh_ply). The data is walked as the header declares it.
+  test::TempDir dir;
+  const std::string header =
+      "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+      "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n"
+      "0 0 0\n1 0 0\n0 1 0\n";
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {header + "300 0 1 2\n",
+       "data line 4 (element 'face'): list 'vertex_indices' has the count 300, above its count type"},
+      {header + "5 0 1 2\n", "the 3 values on the line"},
+      {replaced(header, "element face 1", "element face 2") + "3 0 1 2\n",
+       "PLY data ends in element 'face' at instance 1"},
+  };
+  for (const auto& [text, expected] : cases)
+  {
+    const std::string e = errorOf([&] { readMeshFile(dir.write("bad.ply", text)); });
+    EXPECT_NE(e.find(expected), std::string::npos) << "expected '" << expected << "' in: " << e;
+  }
+  // Binary, little endian: a face declaring 200 ints (800 bytes) with 12 bytes left.
+  std::string bin =
+      "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+      "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n";
+  const float xyz[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+  bin.append(reinterpret_cast<const char*>(xyz), sizeof xyz);
+  const std::int32_t idx[3] = {0, 1, 2};
+  std::string good = bin;
+  good.push_back(char(3));
+  good.append(reinterpret_cast<const char*>(idx), sizeof idx);
+  EXPECT_EQ(readMeshFile(dir.write("good_bin.ply", good)).mesh.triangles.size(), 1u);
+  std::string bad = bin;
+  bad.push_back(char(200));
+  bad.append(reinterpret_cast<const char*>(idx), sizeof idx);
+  const std::string e = errorOf([&] { readMeshFile(dir.write("bad_bin.ply", bad)); });
+  EXPECT_NE(e.find("a list of 200 entries, more than the 12 bytes left"), std::string::npos) << e;
+}
+
 const std::string kCubeP = "<p>0 2 3 0 3 1 4 5 7 4 7 6 0 1 5 0 5 4 2 6 7 2 7 3 0 4 6 0 6 2 1 3 7 1 7 5</p>";
 
 TEST(MeshLoader, ColladaCountsAndTokensAreCheckedBeforeAssimpReadsThem)

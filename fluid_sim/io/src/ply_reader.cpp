@@ -279,11 +279,122 @@ void readAscii(const std::string& data, const Header& h, const std::string& path
 
 }  // namespace
 
+namespace
+{
+/// One property of a mesh PLY's element: a scalar, or a list with its count's type.
+struct MeshProperty
+{
+  std::string name;
+  bool list = false;
+  std::string count_type;  // a list's
+  std::string type;        // the scalar's, or the list items'
+};
+struct MeshElement
+{
+  std::string name;
+  std::size_t count = 0;
+  std::vector<MeshProperty> properties;
+};
+
+/// Largest value an integer PLY type holds (the signed ones' positive range).
+std::uint64_t integerMax(const std::string& type)
+{
+  const std::size_t bytes = scalarSize(type);
+  const bool is_signed =
+      type == "char" || type == "int8" || type == "short" || type == "int16" || type == "int" || type == "int32";
+  return bytes >= 8 ? ~std::uint64_t(0) : ((std::uint64_t(1) << (8 * bytes - (is_signed ? 1 : 0))) - 1);
+}
+
+/// Reads an unsigned integer of `bytes` bytes at `p`, in the file's byte order.
+std::uint64_t readUnsigned(const char* p, std::size_t bytes, bool big_endian)
+{
+  std::uint64_t v = 0;
+  for (std::size_t k = 0; k < bytes; ++k)
+  {
+    const std::size_t i = big_endian ? k : bytes - 1 - k;
+    v = (v << 8) | static_cast<unsigned char>(p[i]);
+  }
+  return v;
+}
+
+/// Walks a mesh PLY's data as its header declares it, so that no list asks for more entries than
+/// its count type holds or the file has left: assimp allocates a list's count before it reads it
+/// (a face whose ASCII count was 4294967295 asked for 32 GB).
+void checkPlyMeshBody(const std::string& path, const std::string& data, std::size_t pos, const std::string& format,
+                      const std::vector<MeshElement>& elements)
+{
+  if (format == "ascii")
+  {
+    std::size_t line_no = 0;
+    for (const MeshElement& e : elements)
+      for (std::size_t n = 0; n < e.count; ++n)
+      {
+        if (pos >= data.size())
+          throw ConfigError(path, "PLY data ends in element '" + e.name + "' at instance " + std::to_string(n) +
+                                      " of " + std::to_string(e.count) +
+                                      " (the header declares more than the file holds)");
+        std::size_t eol = data.find('\n', pos);
+        if (eol == std::string::npos) eol = data.size();
+        const std::vector<std::string> w = splitWords(data.substr(pos, eol - pos));
+        pos = eol + 1;
+        ++line_no;
+        const std::string at = "PLY data line " + std::to_string(line_no) + " (element '" + e.name + "'): ";
+        std::size_t k = 0;  // next word
+        for (const MeshProperty& p : e.properties)
+        {
+          if (k >= w.size()) throw ConfigError(path, at + "no value for property '" + p.name + "'");
+          if (!p.list)
+          {
+            ++k;
+            continue;
+          }
+          std::size_t count = 0;
+          if (!parseCount(w[k], count))
+            throw ConfigError(path, at + "list '" + p.name + "' has the count '" + w[k] + "', not a whole number");
+          if (count > integerMax(p.count_type) || count > w.size() - k - 1)
+            throw ConfigError(path, at + "list '" + p.name + "' has the count " + w[k] + ", above its count type '" +
+                                        p.count_type + "' or the " + std::to_string(w.size() - k - 1) +
+                                        " values on the line");
+          k += 1 + count;
+        }
+      }
+    return;
+  }
+  const bool big = format == "binary_big_endian";
+  for (const MeshElement& e : elements)
+    for (std::size_t n = 0; n < e.count; ++n)
+      for (const MeshProperty& p : e.properties)
+      {
+        const std::size_t left = data.size() - std::min(pos, data.size());
+        const std::string at =
+            "PLY element '" + e.name + "' instance " + std::to_string(n) + ", property '" + p.name + "': ";
+        if (!p.list)
+        {
+          if (left < scalarSize(p.type)) throw ConfigError(path, at + "the file ends (truncated)");
+          pos += scalarSize(p.type);
+          continue;
+        }
+        const std::size_t count_bytes = scalarSize(p.count_type);
+        if (left < count_bytes) throw ConfigError(path, at + "the file ends (truncated)");
+        const std::uint64_t count = readUnsigned(data.data() + pos, count_bytes, big);
+        pos += count_bytes;
+        const std::uint64_t need = count * scalarSize(p.type);  // count < 2^32, size <= 8: no overflow
+        if (need > left - count_bytes)
+          throw ConfigError(path, at + "a list of " + std::to_string(count) + " entries, more than the " +
+                                      std::to_string(left - count_bytes) + " bytes left in the file");
+        pos += std::size_t(need);
+      }
+}
+}  // namespace
+
 void checkPlyMeshHeader(const std::string& path, const std::string& data)
 {
-  // Only the header: assimp reads the data and refuses what is wrong there with its own message.
+  // The header, then the data walked as the header declares it (checkPlyMeshBody); the values
+  // themselves (indices in range, finite coordinates) are assimp's and the mesh checks'.
   std::size_t pos = 0, lines = 0;
   bool have_format = false, have_element = false;
+  std::string format;
+  std::vector<MeshElement> elements;
   while (true)
   {
     const std::size_t eol = data.find('\n', pos);
@@ -312,6 +423,7 @@ void checkPlyMeshHeader(const std::string& path, const std::string& data)
         throw ConfigError(
             path, at + "expected 'format ascii|binary_little_endian|binary_big_endian 1.0', got '" + line + "'");
       have_format = true;
+      format = w[1];
     }
     else if (keyword == "element")
     {
@@ -319,6 +431,7 @@ void checkPlyMeshHeader(const std::string& path, const std::string& data)
       if (w.size() != 3 || !parseCount(w[2], count))
         throw ConfigError(path, at + "expected 'element <name> <count>' with a whole count, got '" + line + "'");
       have_element = true;
+      elements.push_back({w[1], count, {}});
     }
     else if (keyword == "property")
     {
@@ -331,6 +444,8 @@ void checkPlyMeshHeader(const std::string& path, const std::string& data)
       if (list && (scalarSize(w[2]) == 0 || isFloating(w[2])))
         throw ConfigError(path, at + "list count type '" + w[2] + "' is not an integer type");
       if (scalarSize(w[list ? 3 : 1]) == 0) throw ConfigError(path, at + "unknown type '" + w[list ? 3 : 1] + "'");
+      elements.back().properties.push_back(list ? MeshProperty{w[4], true, w[2], w[3]}
+                                                : MeshProperty{w[2], false, std::string(), w[1]});
     }
     else if (keyword == "end_header")
     {
@@ -344,6 +459,7 @@ void checkPlyMeshHeader(const std::string& path, const std::string& data)
   }
   if (!have_format) throw ConfigError(path, "the PLY header has no format line");
   if (!have_element) throw ConfigError(path, "the PLY header declares no element");
+  checkPlyMeshBody(path, data, pos, format, elements);
 }
 
 PlyFrame readPlyFrame(const std::string& path)
