@@ -270,6 +270,8 @@ TEST(MeshLoader, PlyHeadersAreCheckedBeforeAssimpReadsThem)
       {replaced(good, "element vertex 3", "element vertex -3"), "line 4: expected 'element <name> <count>'"},
       {replaced(good, "format ascii 1.0", "format ascii 2.0"), "line 2: expected 'format"},
       {replaced(good, "element vertex 3\n", "property float w\nelement vertex 3\n"), "a property before any element"},
+      {replaced(good, "element face 1", "element 4294967295face 1"), "line 8: element name '4294967295face'"},
+      {replaced(good, "property float y", "property float 9y"), "line 6: property name '9y'"},
   };
   for (const auto& [text, expected] : cases)
   {

@@ -296,6 +296,15 @@ struct MeshElement
   std::vector<MeshProperty> properties;
 };
 
+/// A PLY element or property name: a letter or '_' first, then letters, digits, '_' or '-'.
+bool isPlyName(const std::string& name)
+{
+  if (name.empty() || !(std::isalpha(static_cast<unsigned char>(name[0])) || name[0] == '_')) return false;
+  for (char c : name)
+    if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-')) return false;
+  return true;
+}
+
 /// Largest value an integer PLY type holds (the signed ones' positive range).
 std::uint64_t integerMax(const std::string& type)
 {
@@ -430,6 +439,9 @@ void checkPlyMeshHeader(const std::string& path, const std::string& data)
       std::size_t count = 0;
       if (w.size() != 3 || !parseCount(w[2], count))
         throw ConfigError(path, at + "expected 'element <name> <count>' with a whole count, got '" + line + "'");
+      // assimp reads a name that starts with a digit as a count (an element '4294967295face'
+      // asked for 96 GB, fuzz_mesh_ply): names are identifiers.
+      if (!isPlyName(w[1])) throw ConfigError(path, at + "element name '" + w[1] + "' is not a name (a letter first)");
       have_element = true;
       elements.push_back({w[1], count, {}});
     }
@@ -444,6 +456,8 @@ void checkPlyMeshHeader(const std::string& path, const std::string& data)
       if (list && (scalarSize(w[2]) == 0 || isFloating(w[2])))
         throw ConfigError(path, at + "list count type '" + w[2] + "' is not an integer type");
       if (scalarSize(w[list ? 3 : 1]) == 0) throw ConfigError(path, at + "unknown type '" + w[list ? 3 : 1] + "'");
+      if (!isPlyName(w.back()))
+        throw ConfigError(path, at + "property name '" + w.back() + "' is not a name (a letter first)");
       elements.back().properties.push_back(list ? MeshProperty{w[4], true, w[2], w[3]}
                                                 : MeshProperty{w[2], false, std::string(), w[1]});
     }
