@@ -152,6 +152,22 @@ void requireInstrumentName(const std::vector<Config>& list, std::size_t i, const
     if (list[j].name == name) throw ConfigError(key + ".name", "duplicate name '" + name + "'");
 }
 
+/// A region's or a sink's box (with its pose) or sphere; a body's inside is checked by the caller.
+void requireRegionShape(const RegionConfig& r, const std::string& key)
+{
+  if (r.shape == RegionShape::Box)
+  {
+    requireBox(r.box, key + ".box");
+    requireFinite(r.pose.translation, key + ".pose.xyz");
+    if (!r.pose.rotation.coeffs().allFinite()) throw ConfigError(key + ".pose.rpy", "must be finite");
+  }
+  else if (r.shape == RegionShape::Sphere)
+  {
+    requireFinite(r.sphere.center, key + ".sphere.center");
+    requirePositive(r.sphere.radius, key + ".sphere.radius");
+  }
+}
+
 void validateInstruments(const SceneConfig& s)
 {
   for (std::size_t i = 0; i < s.regions.size(); ++i)
@@ -159,41 +175,17 @@ void validateInstruments(const SceneConfig& s)
     const RegionConfig& r = s.regions[i];
     const std::string key = "regions[" + std::to_string(i) + "]";
     requireInstrumentName(s.regions, i, key);
-    switch (r.shape)
-    {
-      case RegionShape::Box:
-        requireBox(r.box, key + ".box");
-        requireFinite(r.pose.translation, key + ".pose.xyz");
-        if (!r.pose.rotation.coeffs().allFinite()) throw ConfigError(key + ".pose.rpy", "must be finite");
-        break;
-      case RegionShape::Sphere:
-        requireFinite(r.sphere.center, key + ".sphere.center");
-        requirePositive(r.sphere.radius, key + ".sphere.radius");
-        break;
-      case RegionShape::Body:
-        if (r.body.empty()) throw ConfigError(key + ".body", "must name a boundary body");
-        break;
-    }
+    requireRegionShape(r, key);
+    if (r.shape == RegionShape::Body && r.body.empty()) throw ConfigError(key + ".body", "must name a boundary body");
   }
   for (std::size_t i = 0; i < s.sinks.size(); ++i)
   {
     const RegionConfig& r = s.sinks[i];
     const std::string key = "sinks[" + std::to_string(i) + "]";
     requireInstrumentName(s.sinks, i, key);
-    switch (r.shape)
-    {
-      case RegionShape::Box:
-        requireBox(r.box, key + ".box");
-        requireFinite(r.pose.translation, key + ".pose.xyz");
-        if (!r.pose.rotation.coeffs().allFinite()) throw ConfigError(key + ".pose.rpy", "must be finite");
-        break;
-      case RegionShape::Sphere:
-        requireFinite(r.sphere.center, key + ".sphere.center");
-        requirePositive(r.sphere.radius, key + ".sphere.radius");
-        break;
-      case RegionShape::Body:
-        throw ConfigError(key + ".body", "a sink is a box or a sphere, not a body's inside");
-    }
+    if (r.shape == RegionShape::Body)
+      throw ConfigError(key + ".body", "a sink is a box or a sphere, not a body's inside");
+    requireRegionShape(r, key);
   }
   for (std::size_t i = 0; i < s.probes.size(); ++i)
   {
