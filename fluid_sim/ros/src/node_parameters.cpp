@@ -149,6 +149,18 @@ XmlRpc::XmlRpcValue toParameter(const YAML::Node& n)
   }
 }
 
+/// A number parameter (rosparam makes 500 an int, 500.0 a double).
+bool asNumber(XmlRpc::XmlRpcValue& v, double& out)
+{
+  if (v.getType() == XmlRpc::XmlRpcValue::TypeDouble)
+    out = static_cast<double>(v);
+  else if (v.getType() == XmlRpc::XmlRpcValue::TypeInt)
+    out = static_cast<int>(v);
+  else
+    return false;
+  return true;
+}
+
 /// Typed reads from the parameter map; a value of the wrong type is an error naming it.
 class ParameterReader
 {
@@ -173,13 +185,7 @@ private:
   }
   static bool convert(XmlRpc::XmlRpcValue& v, double& out)
   {
-    if (v.getType() == XmlRpc::XmlRpcValue::TypeDouble)
-      out = static_cast<double>(v);
-    else if (v.getType() == XmlRpc::XmlRpcValue::TypeInt)
-      out = static_cast<int>(v);
-    else
-      return false;
-    return true;
+    return asNumber(v, out);
   }
   static bool convert(XmlRpc::XmlRpcValue& v, int& out)
   {
@@ -230,18 +236,6 @@ XmlRpc::XmlRpcValue yamlToParameters(const std::string& yaml_text)
 
 namespace
 {
-/// A number parameter (rosparam makes 500 an int, 500.0 a double).
-bool asNumber(XmlRpc::XmlRpcValue& v, double& out)
-{
-  if (v.getType() == XmlRpc::XmlRpcValue::TypeDouble)
-    out = static_cast<double>(v);
-  else if (v.getType() == XmlRpc::XmlRpcValue::TypeInt)
-    out = static_cast<int>(v);
-  else
-    return false;
-  return true;
-}
-
 /// A list of exactly N numbers.
 template <std::size_t N>
 bool asNumbers(XmlRpc::XmlRpcValue& v, std::array<double, N>& out)
