@@ -19,52 +19,40 @@
 
 namespace fluid_sim
 {
+RegionTest::RegionTest(const RegionConfig& r, const Pose& pose, const BoundaryConfig* body_shape)
+    : shape(r.shape)
+    , world_to_local(pose.rotation.toRotationMatrix().transpose())
+    , translation(pose.translation)
+    , min(r.box.min)
+    , max(r.box.max)
+    , center(r.sphere.center)
+    , radius2(r.sphere.radius * r.sphere.radius)
+    , body(body_shape)
+{
+}
+
+bool RegionTest::contains(const Vec3d& p) const
+{
+  switch (shape)
+  {
+    case RegionShape::Sphere:
+      return (p - center).squaredNorm() <= radius2;
+    case RegionShape::Box:
+    {
+      const Vec3d local = world_to_local * (p - translation);
+      return (local.array() >= min.array()).all() && (local.array() <= max.array()).all();
+    }
+    case RegionShape::Body:
+      return insideShape(*body, world_to_local * (p - translation));
+  }
+  return false;
+}
+
 namespace
 {
 /// Most cells of a probe grid (4 bytes each): probes spread over a large domain get coarser cells
 /// instead of a grid of the domain's size at the kernel support.
 constexpr double kMaxProbeGridCells = 4.0e6;
-
-/// A region's inside test, with the rotation as a matrix (one per evaluation, not per particle).
-struct RegionTest
-{
-  RegionShape shape;
-  Mat3d world_to_local;                  // R^T of the box's or the body's pose
-  Vec3d translation;                     // m, of that pose
-  Vec3d min, max;                        // m, the box in its frame
-  Vec3d center;                          // m, the sphere's
-  double radius2;                        // m^2, the sphere's squared radius
-  const BoundaryConfig* body = nullptr;  // the body's shape in its frame (a body region)
-
-  RegionTest(const RegionConfig& r, const Pose& pose, const BoundaryConfig* body_shape)
-      : shape(r.shape)
-      , world_to_local(pose.rotation.toRotationMatrix().transpose())
-      , translation(pose.translation)
-      , min(r.box.min)
-      , max(r.box.max)
-      , center(r.sphere.center)
-      , radius2(r.sphere.radius * r.sphere.radius)
-      , body(body_shape)
-  {
-  }
-
-  bool contains(const Vec3d& p) const
-  {
-    switch (shape)
-    {
-      case RegionShape::Sphere:
-        return (p - center).squaredNorm() <= radius2;
-      case RegionShape::Box:
-      {
-        const Vec3d local = world_to_local * (p - translation);
-        return (local.array() >= min.array()).all() && (local.array() <= max.array()).all();
-      }
-      case RegionShape::Body:
-        return insideShape(*body, world_to_local * (p - translation));
-    }
-    return false;
-  }
-};
 
 /// A primitive's volume, m^3.
 double shapeVolume(const BoundaryConfig& b)

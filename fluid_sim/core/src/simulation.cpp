@@ -15,6 +15,7 @@
 #include "fluid_sim/core/fluid_constants.h"
 #include "fluid_sim/core/fluid_fill.h"
 #include "fluid_sim/core/fluid_particles.h"
+#include "fluid_sim/core/measurements.h"
 #include "fluid_sim/core/neighborhoods.h"
 #include "fluid_sim/core/non_pressure_forces.h"
 #include "fluid_sim/core/parallel.h"
@@ -140,24 +141,16 @@ struct Simulation::Impl
   {
     const std::size_t n = fluid.size();
     std::vector<std::int32_t> in(n, -1);  // the sink holding each particle, or -1
+    std::vector<RegionTest> tests;
+    for (const RegionConfig& r : scene.sinks) tests.emplace_back(r, r.pose, nullptr);
     parallelFor(n, [&](std::size_t i) {
       const Vec3d x = fluid.x[i].cast<double>();
-      for (std::size_t k = 0; k < scene.sinks.size(); ++k)
-      {
-        const RegionConfig& r = scene.sinks[k];
-        const bool inside =
-            r.shape == RegionShape::Sphere
-                ? (x - r.sphere.center).squaredNorm() <= r.sphere.radius * r.sphere.radius
-                : [&] {
-                    const Vec3d local = r.pose.rotation.conjugate() * (x - r.pose.translation);
-                    return (local.array() >= r.box.min.array()).all() && (local.array() <= r.box.max.array()).all();
-                  }();
-        if (inside)
+      for (std::size_t k = 0; k < tests.size(); ++k)
+        if (tests[k].contains(x))
         {
           in[i] = std::int32_t(k);
           return;
         }
-      }
     });
     std::vector<std::uint8_t> keep(n, 1);
     std::size_t drained = 0;

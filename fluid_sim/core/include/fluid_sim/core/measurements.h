@@ -16,6 +16,23 @@ namespace fluid_sim
 class Simulation;
 class UniformGrid;
 
+/// A region's (or a sink's) inside test, with the rotation as a matrix: built once per
+/// evaluation or step, not per particle.
+struct RegionTest
+{
+  RegionShape shape;
+  Mat3d world_to_local;                  // R^T of the box's or the body's pose
+  Vec3d translation;                     // m, of that pose
+  Vec3d min, max;                        // m, the box in its frame
+  Vec3d center;                          // m, the sphere's
+  double radius2;                        // m^2, the sphere's squared radius
+  const BoundaryConfig* body = nullptr;  // the body's shape in its frame (a body region)
+
+  /// `pose`: the box's (a region's or a sink's own) or the body's; `body_shape` for a body region.
+  RegionTest(const RegionConfig& r, const Pose& pose, const BoundaryConfig* body_shape);
+  bool contains(const Vec3d& p) const;  // p in m, world
+};
+
 /// The water inside one region.
 struct RegionMeasurement
 {
