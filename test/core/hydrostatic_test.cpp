@@ -209,7 +209,8 @@ TEST_P(Rest, BlockAtRestComesToRest)
       "peak %.4f m/s\n",
       toString(GetParam()), late_max, late_p99, rms, peak_rms);
   EXPECT_LT(late_p99, 0.05) << toString(GetParam());
-  EXPECT_LT(late_max, 0.5) << toString(GetParam());  // a third of sqrt(g H): nothing is thrown
+  // The single fastest particle: 0.066 m/s (mls) on that machine; twice 0.05 says nothing was thrown.
+  EXPECT_LT(late_max, 0.1) << toString(GetParam());
   EXPECT_LT(rms, peak_rms / 3) << toString(GetParam()) << ": rms speed " << rms << " m/s, start-up peak " << peak_rms;
   EXPECT_EQ(sim.numFluidParticles(), n);
 }
