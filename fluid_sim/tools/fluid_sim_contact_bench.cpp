@@ -8,6 +8,7 @@
 // against Bullet".
 //
 //   fluid_sim_contact_bench [--spacing S ...] [--scenario NAME ...] [--threads N]
+//                           [--friction MU] [--angle DEG ...] [--yaw DEG ...] [--speed V ...]
 //                           [--margin M] [--iterations N] [--mesh FILE]
 
 #include <btBulletDynamicsCommon.h>
