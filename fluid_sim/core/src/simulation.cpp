@@ -11,6 +11,7 @@
 
 #include "fluid_sim/core/bodies.h"
 #include "fluid_sim/core/dfsph_solver.h"
+#include "fluid_sim/core/emitters.h"
 #include "fluid_sim/core/fill_relaxation.h"
 #include "fluid_sim/core/fluid_constants.h"
 #include "fluid_sim/core/fluid_fill.h"
@@ -44,8 +45,12 @@ struct Simulation::Impl
       , solver(makePressureSolver({scene, constants, fluid, bodies, neighbors}, fluid))
       , dt_next(computeTimeStep(scene.time_step, fluid, constants.gravity, scene.spacing))
       , contacts(scene.spacing, scene.contacts)
+      , emitters(scene, bodies)
   {
     for (const RegionConfig& sink : scene.sinks) sink_totals.push_back({sink.name, 0, 0.0, 0.0});
+    // The emitters' water is stored from the start where its amount is known: no reallocation
+    // while they run (fields and their sort scratch).
+    if (!emitters.empty()) fluid.reserve(fluid.size() + emitters.expectedParticles());
     fill_report.trimmed = fill.trimmed;
     if (scene.fill.relax)
     {
@@ -127,6 +132,9 @@ struct Simulation::Impl
       rep.removed = removeOutsideDomain(fluid, scene.domain);
       removed_total += rep.removed;
       if (!scene.sinks.empty()) rep.drained = drain();
+      // Emitters release the layers whose time came in this step, at the nozzles' poses now
+      // (emitters.cpp); they join the next step's neighbourhoods.
+      if (!emitters.empty()) rep.emitted = emitters.emit(t - dt, dt, fluid, bodies);
     }
     rep.fluid_particles = fluid.size();
     solver->report(rep);
@@ -184,6 +192,7 @@ struct Simulation::Impl
   std::size_t removed_total = 0;           // particles that left the domain since t = 0
   ContactSolver contacts;                  // free bodies' contacts (unused without them)
   std::vector<SinkTotal> sink_totals;      // per scene sink, since t = 0
+  Emitters emitters;                       // the scene's nozzles (none: nothing per step)
 };
 
 Simulation::Simulation(const SceneConfig& scene) : impl_(std::make_unique<Impl>(scene)) {}
@@ -354,6 +363,24 @@ std::size_t Simulation::removedTotal() const
 const std::vector<SinkTotal>& Simulation::sinkTotals() const
 {
   return impl_->sink_totals;
+}
+const std::vector<EmitterTotal>& Simulation::emitterTotals() const
+{
+  return impl_->emitters.totals();
+}
+void Simulation::setEmitterPose(std::size_t index, const Pose& pose)
+{
+  if (index >= impl_->scene.emitters.size())
+    throw ConfigError("emitters", "no emitter with index " + std::to_string(index));
+  const EmitterConfig& e = impl_->scene.emitters[index];
+  if (!e.externally_posed) throw ConfigError(e.name, "emitter is not posed from outside");
+  if (!pose.translation.allFinite() || !pose.rotation.coeffs().allFinite())
+    throw std::invalid_argument("setEmitterPose: emitter '" + e.name + "': the pose is not finite");
+  impl_->emitters.setPose(index, pose);
+}
+Pose Simulation::emitterPose(std::size_t index) const
+{
+  return impl_->emitters.worldPose(index, impl_->bodies);
 }
 double Simulation::particleMass() const
 {

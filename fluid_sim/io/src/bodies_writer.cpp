@@ -66,5 +66,29 @@ void SinksCsvWriter::flush()
   if (!out_) throw std::runtime_error("cannot write " + path_);
 }
 
+const char* EmittersCsvWriter::header()
+{
+  return "t,emitter,particles,volume_m3,mass_kg,blocked";
+}
+
+EmittersCsvWriter::EmittersCsvWriter(const std::string& path) : path_(path), out_(path, std::ios::trunc)
+{
+  if (!out_) throw std::runtime_error("cannot create " + path_);
+  out_.precision(9);
+  out_ << header() << '\n';
+}
+
+void EmittersCsvWriter::write(double t, const std::vector<EmitterTotal>& emitters)
+{
+  for (const EmitterTotal& e : emitters)
+    out_ << t << ',' << e.name << ',' << e.particles << ',' << e.volume << ',' << e.mass << ',' << e.blocked << '\n';
+}
+
+void EmittersCsvWriter::flush()
+{
+  out_.flush();
+  if (!out_) throw std::runtime_error("cannot write " + path_);
+}
+
 }  // namespace io
 }  // namespace fluid_sim

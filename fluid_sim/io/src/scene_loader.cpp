@@ -501,6 +501,62 @@ ProbeConfig readProbe(const Entry& e)
   return probe;
 }
 
+/// One entry of `emitters`: {name, circle: {radius} | rectangle: {size: [w, h]}, pose: {xyz,
+/// rpy} (or pose: {xyz} with direction: [x, y, z]), speed | flow_rate, start, duration, body,
+/// max_particles}.
+EmitterConfig readEmitter(const Entry& e)
+{
+  MapReader r(e);
+  const std::optional<Entry> name = r.get("name"), circle = r.get("circle"), rectangle = r.get("rectangle"),
+                             pose = r.get("pose"), direction = r.get("direction"), body = r.get("body"),
+                             max_particles = r.get("max_particles");
+  EmitterConfig em;
+  r.read("speed", em.speed);
+  r.read("flow_rate", em.flow_rate);
+  r.read("start", em.start);
+  r.read("duration", em.duration);
+  r.finish();
+  readInto(name ? *name : r.require("name"), em.name);
+  if (bool(circle) == bool(rectangle))
+    throw ConfigError(e.key, std::string(circle ? "has two nozzle shapes, 'circle' and 'rectangle'; give one"
+                                                : "needs a nozzle shape: circle {radius} or rectangle {size: [w, h]}") +
+                                 lineOf(e.node));
+  if (circle)
+  {
+    MapReader c(*circle);
+    em.shape = NozzleShape::Circle;
+    readInto(c.require("radius"), em.radius);
+    c.finish();
+  }
+  else
+  {
+    MapReader c(*rectangle);
+    em.shape = NozzleShape::Rectangle;
+    const Entry size = c.require("size");
+    c.finish();
+    const std::array<double, 2> wh = readArray<double, 2>(size, "a list [width, height] (m)");
+    em.size = Eigen::Vector2d(wh[0], wh[1]);
+  }
+  if (pose) em.pose = readPose(*pose);
+  if (direction)
+  {
+    // The nozzle's +z axis along the direction (the shortest rotation from +z); it replaces rpy.
+    if (pose && MapReader(*pose).has("rpy"))
+      throw ConfigError(direction->key, "give either pose.rpy or direction, not both" + lineOf(direction->node));
+    const Vec3d d = readVec3(*direction);
+    checkValue(*direction, d.allFinite() && d.norm() > 0.0, "must be a finite, non-zero vector");
+    em.pose.rotation = Eigen::Quaterniond::FromTwoVectors(Vec3d::UnitZ(), d.normalized());
+  }
+  if (body) readInto(*body, em.body);
+  if (max_particles)
+  {
+    const double n = readScalar<double>(*max_particles);
+    checkValue(*max_particles, n >= 1.0 && n <= 1.0e12 && n == std::floor(n), "must be a whole number >= 1");
+    em.max_particles = static_cast<std::size_t>(n);
+  }
+  return em;
+}
+
 /// `spill: {below: Z}`.
 SpillConfig readSpill(const Entry& e)
 {
@@ -786,6 +842,7 @@ SceneConfig readScene(const YAML::Node& root, LoadContext& ctx)
   if (auto e = r.get("contacts")) s.contacts = readContacts(*e);
   // A sink is read as a region (name, box with pose, or sphere); validate() refuses a body one.
   if (auto e = r.get("sinks")) forEachItem(*e, [&](const Entry& item) { s.sinks.push_back(readRegion(item)); });
+  if (auto e = r.get("emitters")) forEachItem(*e, [&](const Entry& item) { s.emitters.push_back(readEmitter(item)); });
   r.finish();
   return s;
 }

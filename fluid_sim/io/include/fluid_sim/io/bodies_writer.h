@@ -54,5 +54,23 @@ private:
   std::ofstream out_;
 };
 
+/// The runner's emitters.csv: what each emitter (scene key emitters) has released since t = 0, one
+/// row per emitter per measurement (the same times as bodies.csv). Created only when the scene has
+/// an emitter. Columns: t,emitter,particles,volume_m3,mass_kg,blocked (cumulative; volume as
+/// particles times spacing^3; blocked: nozzle points left out because water or a wall was there).
+class EmittersCsvWriter
+{
+public:
+  /// Creates (truncates) `path` with the header; throws std::runtime_error naming the file.
+  explicit EmittersCsvWriter(const std::string& path);
+  void write(double t, const std::vector<EmitterTotal>& emitters);
+  void flush();
+  static const char* header();
+
+private:
+  std::string path_;
+  std::ofstream out_;
+};
+
 }  // namespace io
 }  // namespace fluid_sim
