@@ -226,6 +226,12 @@ int run(const Options& options)
   {
     const SceneConfig scene = io::loadScene(options.scene, options.overrides);
     for (const std::string& warning : scene.warnings) std::cerr << "warning: " << warning << '\n';
+    // A nozzle fixed in a tf frame needs tf: the ROS node's, not the runner's.
+    for (std::size_t i = 0; i < scene.emitters.size(); ++i)
+      if (!scene.emitters[i].frame.empty())
+        throw ConfigError("emitters[" + std::to_string(i) + "].frame",
+                          "'" + scene.emitters[i].frame +
+                              "' is a tf frame, which only the ROS node follows; give the runner a pose or a body");
     sim = std::make_unique<Simulation>(scene);
     instruments = std::make_unique<Measurements>(*sim);  // a region's body must be one of sim's
   }

@@ -212,6 +212,7 @@ void validateInstruments(const SceneConfig& s)
     if (has_rate) requirePositive(e.flow_rate, key + ".flow_rate");
     requireNonNegative(e.start, key + ".start");
     if (!(e.duration > 0.0)) throw ConfigError(key + ".duration", "must be > 0 (s), got " + str(e.duration));
+    if (!e.frame.empty() && !e.body.empty()) throw ConfigError(key + ".frame", "give either body or frame, not both");
   }
   if (!std::isfinite(s.contacts.friction) || s.contacts.friction < 0.0)
     throw ConfigError("contacts.friction", "must be finite and >= 0, got " + str(s.contacts.friction));

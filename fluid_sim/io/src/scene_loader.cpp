@@ -509,7 +509,7 @@ EmitterConfig readEmitter(const Entry& e)
   MapReader r(e);
   const std::optional<Entry> name = r.get("name"), circle = r.get("circle"), rectangle = r.get("rectangle"),
                              pose = r.get("pose"), direction = r.get("direction"), body = r.get("body"),
-                             max_particles = r.get("max_particles");
+                             max_particles = r.get("max_particles"), frame = r.get("frame");
   EmitterConfig em;
   r.read("speed", em.speed);
   r.read("flow_rate", em.flow_rate);
@@ -548,6 +548,12 @@ EmitterConfig readEmitter(const Entry& e)
     em.pose.rotation = Eigen::Quaterniond::FromTwoVectors(Vec3d::UnitZ(), d.normalized());
   }
   if (body) readInto(*body, em.body);
+  if (frame)
+  {
+    readInto(*frame, em.frame);
+    checkValue(*frame, !em.frame.empty(), "must name a tf frame");
+    em.externally_posed = true;
+  }
   if (max_particles)
   {
     const double n = readScalar<double>(*max_particles);

@@ -333,7 +333,10 @@ struct EmitterConfig
   // key: max_particles. The most particles it emits (0: as many as flow_rate x duration makes,
   // or, without a duration, until the scene's max_fluid_particles is reached).
   std::size_t max_particles = 0;
-  bool externally_posed = false;  // posed by the caller (Simulation::setEmitterPose; the node's `frame`)
+  // key: frame (the ROS node only). A tf frame the nozzle is fixed in (pose relative to it): the
+  // node looks it up before every step and poses the nozzle (Simulation::setEmitterPose).
+  std::string frame;
+  bool externally_posed = false;  // posed by the caller (set with frame)
 };
 
 /// Contacts between bodies, where a free body is involved (docs/method.md, Free bodies).
