@@ -1579,13 +1579,16 @@ def case9(S):
         for r in reg:
             cups.setdefault(round(float(r["t"]), 6), {})[r["region"]] = int(r["particles"])
         spilt = {round(float(r["t"]), 6): int(r["particles"]) for r in spill}
-        # Particles in the domain at each frame time: the last step at or before it (stats.csv).
+        # Particles in the domain at each frame time: the step that ended at it (stats.csv; the CSVs
+        # print times with different digits, so the nearest step, not the last one before).
         steps_t, steps_n, steps_removed = st["t"], st["fluid_particles"], st["removed"]
         times = sorted(cups)
         worst = 0.0  # largest |released - (cups + spilt + in flight + left the domain)| / released
         t_series = []
         for t in times:
-            k = int(np.searchsorted(steps_t, t + 1e-9)) - 1
+            k = int(np.argmin(np.abs(steps_t - t)))
+            if abs(steps_t[k] - t) > 1e-6:
+                k = -1  # before the first step (t = 0): nothing released yet
             n = int(steps_n[k]) if k >= 0 else 0
             removed = int(np.sum(steps_removed[: k + 1])) if k >= 0 else 0
             a, b, sp_n = cups[t].get("cup_a", 0), cups[t].get("cup_b", 0), spilt.get(t, 0)
