@@ -42,10 +42,12 @@ def main(path):
             if len(pts) != n:
                 problems.append("a cloud whose points do not read back (%d of %d)" % (len(pts), n))
         frames = set()
-        for _, tf, _ in bag.read_messages(topics=["/tf"]):
+        # robot_state_publisher puts the moving joints' links on /tf, the fixed ones' (the paddle,
+        # on the fixed wrist) on /tf_static.
+        for _, tf, _ in bag.read_messages(topics=["/tf", "/tf_static"]):
             frames.update(t.child_frame_id for t in tf.transforms)
-        if "paddle" not in frames:
-            problems.append("tf without the robot's paddle link (frames %s)" % sorted(frames))
+        if not {"arm", "paddle"} <= frames:
+            problems.append("tf without the robot's arm and paddle links (frames %s)" % sorted(frames))
     for p in problems:
         print("read_bag: " + p)
     print("read_bag: %d clouds read back; %s" % (clouds, "ok" if not problems else "%d problems" % len(problems)))

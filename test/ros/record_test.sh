@@ -3,7 +3,7 @@
 # decimated clouds with max_points) while `rosbag record` takes two seconds of its topics; the bag
 # is then read back (test/ros/read_bag.py): the topics are there with their types, the stats'
 # simulated time advances, the clouds have the documented fields and at most max_points points,
-# tf carries the robot's links.
+# tf (and tf_static) carry the robot's links.
 set -uo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
 # shellcheck source=../../scripts/ros_env.sh
