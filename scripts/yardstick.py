@@ -34,6 +34,7 @@ import json
 import math
 import os
 import re
+import resource
 import shutil
 import subprocess
 import sys
@@ -156,17 +157,25 @@ def load_average():
         return " ".join(f.read().split()[:3])
 
 
+def children_cpu_s():
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
+
+
 def run(cmd, env=None, log=None):
+    """Runs cmd; returns its output, wall-clock s and CPU s (user + system, whole process)."""
     start = time.monotonic()
+    cpu0 = children_cpu_s()
     proc = subprocess.run(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     wall = time.monotonic() - start
+    cpu = children_cpu_s() - cpu0
     if log:
         with open(log, "w") as f:
             f.write(" ".join(cmd) + "\n" + proc.stdout)
     if proc.returncode != 0:
         sys.stderr.write(proc.stdout[-4000:])
         raise SystemExit(f"yardstick: {' '.join(cmd)} exited with {proc.returncode}")
-    return proc.stdout, wall
+    return proc.stdout, wall, cpu
 
 
 def run_ours(args, spacing, steps, warm, workdir, tag):
@@ -175,7 +184,9 @@ def run_ours(args, spacing, steps, warm, workdir, tag):
         "--warmup", "0", "--steps", str(steps), "--threads", str(args.threads), "--json", json_path]
     if warm:
         cmd += ["--set", "solver.warm_start=true"]
-    _, wall = run(cmd, log=os.path.join(workdir, f"ours_{tag}.log"))
+    _, wall, cpu = run(cmd, log=os.path.join(workdir, f"ours_{tag}.log"))
+    print(f"    ours {tag}: {wall:.0f} s wall, {cpu:.0f} s CPU ({cpu / wall / args.threads:.0%} of {args.threads} cores)",
+          flush=True)
     with open(json_path) as f:
         doc = json.load(f)
     rows = []
@@ -192,7 +203,7 @@ def run_ours(args, spacing, steps, warm, workdir, tag):
             "div_it": r["divergence_iterations_per_step"], "dens_it": r["density_iterations_per_step"],
             "flags": ("unstable" if r["steps_unstable"] else
                       (f"nc={r['steps_not_converged']}" if r["steps_not_converged"] else "ok")),
-            "wall_s": wall,
+            "wall_s": wall, "cpu_s": cpu,
         })
     return rows
 
@@ -207,10 +218,13 @@ def run_theirs(args, scene_path, steps, dt, workdir, tag):
     outdir = os.path.join(workdir, f"sph_out_{tag}")
     os.makedirs(outdir, exist_ok=True)
     env = dict(os.environ, OMP_NUM_THREADS=str(args.threads))
+    env.update(kv.split("=", 1) for kv in args.sph_env)
     # stopAt halfway into step N + 1: SPlisHSPlasH steps while time <= stopAt, so N steps.
     stop_at = (steps - 0.5) * dt
     cmd = [args.sph_bin, "--no-gui", "--stopAt", repr(stop_at), "--output-dir", outdir, scene_path]
-    out, wall = run(cmd, env=env, log=os.path.join(workdir, f"sph_{tag}.log"))
+    out, wall, cpu = run(cmd, env=env, log=os.path.join(workdir, f"sph_{tag}.log"))
+    print(f"    SPlisHSPlasH {tag}: {wall:.0f} s wall, {cpu:.0f} s CPU ({cpu / wall / args.threads:.0%} of "
+          f"{args.threads} cores; includes its boundary sampling unless cached)", flush=True)
     avg = {m.group(1): float(m.group(2)) for m in AVG_TIME.finditer(out)}
     sums = {m.group(1): float(m.group(2)) for m in TIME_SUM.finditer(out)}
     counts = {m.group(1): float(m.group(2)) for m in AVG_NUMBER.finditer(out)}
@@ -232,7 +246,7 @@ def run_theirs(args, scene_path, steps, dt, workdir, tag):
         "ms": total, "nbr": nbr, "div": div, "dens": dens, "rest": total - nbr - div - dens,
         "div_it": counts.get("DFSPH - iterationsV", float("nan")),
         "dens_it": counts.get("DFSPH - iterations", float("nan")),
-        "flags": "", "wall_s": wall,
+        "flags": "", "wall_s": wall, "cpu_s": cpu,
         "phases": {k: v for k, v in avg.items() if k != "SimStep"},
     }]
 
@@ -296,6 +310,8 @@ def main():
     p.add_argument("--sph-bin", required=True, help="SPlisHSPlasH's bin/SPHSimulator")
     p.add_argument("--sph-scene-dir", required=True,
                    help="SPlisHSPlasH's data/Scenes (its box mesh is ../models/UnitBox.obj)")
+    p.add_argument("--sph-env", action="append", default=[],
+                   help="KEY=VALUE for SPlisHSPlasH's environment, repeatable (e.g. OMP_WAIT_POLICY=PASSIVE)")
     p.add_argument("--case", action="append", default=[],
                    help="SPACING:STEPS[:ROUNDS], repeatable (default 0.031:300, i.e. 32,768 fluid over 0.3 s)")
     p.add_argument("--methods", nargs="+", default=["all"], help="our boundary pressure methods (default all)")
@@ -334,6 +350,8 @@ def main():
         return
 
     print(f"workdir {workdir}; {args.threads} threads each; load average at start {load_average()}")
+    if args.sph_env:
+        print("SPlisHSPlasH's extra environment: " + " ".join(args.sph_env))
     print("SPlisHSPlasH's DFSPH always warm-starts both solves; its row is compared with our cold and warm rows.\n")
     results = []
     t0 = time.monotonic()
