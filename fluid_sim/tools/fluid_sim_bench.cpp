@@ -53,6 +53,8 @@ struct Row
   double ns_per_particle_iteration = 0.0;  // ns in the two solves / (fluid particles * iterations)
   double ms_neighbors = 0.0;               // ms per step in the neighbour search (mean)
   double ms_solves = 0.0;                  // ms per step in the divergence + density solves (mean)
+  double ms_divergence = 0.0;              // ms per step in the divergence solve (mean)
+  double ms_density = 0.0;                 // ms per step in the density solve and the integration (mean)
   double density_error = 0.0;              // relative, mean over the measured steps
   double pairs_per_particle = 0.0;         // fluid-fluid + fluid-boundary pairs per fluid particle (mean)
   double ns_per_pair_pass = 0.0;           // ns in the two solves / (pairs x iterations x 2 passes)
@@ -113,6 +115,7 @@ Row runOne(const fluid_sim::SceneConfig& scene, int warmup, int steps)
   wall_ms.reserve(static_cast<std::size_t>(steps));
   const double t_start = sim.time();  // s
   double sum_div = 0.0, sum_dens = 0.0, sum_nbr = 0.0, sum_solve_ms = 0.0, sum_err = 0.0;
+  double sum_div_ms = 0.0, sum_dens_ms = 0.0;
   double particle_iterations = 0.0;  // sum over steps of fluid particles * (div + density iterations)
   double pair_passes = 0.0;          // sum over steps of pairs * iterations * 2 (a^p pass + Jacobi pass)
   double sum_pairs_per_particle = 0.0;
@@ -125,6 +128,8 @@ Row runOne(const fluid_sim::SceneConfig& scene, int warmup, int steps)
     sum_dens += report.density_iterations;
     sum_nbr += report.ms_neighbors;
     sum_solve_ms += report.ms_divergence + report.ms_density;
+    sum_div_ms += report.ms_divergence;
+    sum_dens_ms += report.ms_density;
     sum_err += report.density_error;
     const double iterations = static_cast<double>(report.divergence_iterations + report.density_iterations);
     particle_iterations += static_cast<double>(report.fluid_particles) * iterations;
@@ -153,6 +158,8 @@ Row runOne(const fluid_sim::SceneConfig& scene, int warmup, int steps)
   row.density_iterations = sum_dens / n;
   row.ms_neighbors = sum_nbr / n;
   row.ms_solves = sum_solve_ms / n;
+  row.ms_divergence = sum_div_ms / n;
+  row.ms_density = sum_dens_ms / n;
   row.density_error = sum_err / n;
   row.ns_per_particle_iteration = particle_iterations > 0.0 ? sum_solve_ms * 1.0e6 / particle_iterations : 0.0;
   row.pairs_per_particle = sum_pairs_per_particle / n;
@@ -208,6 +215,8 @@ nlohmann::json toJson(const Row& r)
                         {"ns_per_particle_iteration", r.ns_per_particle_iteration},
                         {"ms_neighbors_per_step", r.ms_neighbors},
                         {"ms_solves_per_step", r.ms_solves},
+                        {"ms_divergence_per_step", r.ms_divergence},
+                        {"ms_density_per_step", r.ms_density},
                         {"density_error_mean", r.density_error},
                         {"pairs_per_particle", r.pairs_per_particle},
                         {"ns_per_pair_pass", r.ns_per_pair_pass},
