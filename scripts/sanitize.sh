@@ -47,6 +47,11 @@ for arg in "$@"; do
 done
 
 jobs="$(nproc 2> /dev/null || echo 2)"
+# An instrumented process runs 10-30 times slower: the ROS tests' limits on waiting for the node
+# (never what they check) are multiplied by this factor, at configure time (the ctest TIMEOUTs
+# of the demo, the soak and solver_loop_race_test) and at run time (FLUID_SIM_TEST_TIME_SCALE:
+# node_rostest.cpp's waits, demo_smoke.sh, soak_short.sh).
+time_scale=10
 log() { printf '[sanitize] %s\n' "$*"; }
 export PYENV_VERSION=system
 
@@ -94,7 +99,7 @@ for flavour in "${flavours[@]}"; do
   start=$SECONDS
   log "$flavour: configure and build $dir/"
   mkdir -p "$dir"
-  cmake -S . -B "$dir" -DCMAKE_BUILD_TYPE=RelWithDebInfo "-DCMAKE_CXX_FLAGS=$flags" \
+  cmake -S . -B "$dir" -DCMAKE_BUILD_TYPE=RelWithDebInfo "-DCMAKE_CXX_FLAGS=$flags" -DFLUID_SIM_TEST_TIME_SCALE=$time_scale \
     "-DCMAKE_EXE_LINKER_FLAGS=$flags" "-DCMAKE_SHARED_LINKER_FLAGS=$flags" "${extra[@]}" > "$dir/configure.log" 2>&1 ||
     {
       cat "$dir/configure.log"
@@ -124,7 +129,7 @@ for flavour in "${flavours[@]}"; do
   # it preloaded (the test passes FLUID_SIM_LAUNCH_PREFIX to roslaunch as its launch-prefix).
   # The instrumented node runs 10-30 times slower: the rostests' waits for it and their time limits
   # grow accordingly (limits on waiting for a condition, never the condition itself).
-  export FLUID_SIM_TEST_TIME_SCALE=10 FLUID_SIM_ROSTEST_TIME_LIMIT=1200
+  export FLUID_SIM_TEST_TIME_SCALE=$time_scale FLUID_SIM_ROSTEST_TIME_LIMIT=1200
   runtime="$([[ $flavour == tsan ]] && echo libtsan.so || echo libasan.so)"
   export FLUID_SIM_LAUNCH_PREFIX="env LD_PRELOAD=$(readlink -f "$(gcc -print-file-name="$runtime")")"
   start=$SECONDS
