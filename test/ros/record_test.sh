@@ -12,6 +12,9 @@ port=$((20000 + RANDOM % 20000))
 host="${ROS_HOSTNAME:-${ROS_IP:-localhost}}"
 export ROS_MASTER_URI="http://$host:$port"
 work="$(mktemp -d)"
+# Limits on waits (not on what is checked) times FLUID_SIM_TEST_TIME_SCALE (scripts/sanitize.sh: 10).
+scale="${FLUID_SIM_TEST_TIME_SCALE:-1}"
+[[ "$scale" =~ ^[1-9][0-9]*$ ]] || scale=1
 launch_pid=""
 cleanup() {
   [[ -n "$launch_pid" ]] && kill -INT "$launch_pid" 2> /dev/null && wait "$launch_pid" 2> /dev/null
@@ -29,15 +32,15 @@ fail() {
   fluid_sim demo.launch required:=false headless:=true duration:=60 > "$work/launch.log" 2>&1 &
 launch_pid=$!
 # Recording starts once the node publishes stats (it has built its scene).
-for _ in $(seq 1 240); do
+for _ in $(seq 1 $((240 * scale))); do
   timeout 5 rostopic echo -n 1 /fluid_sim/stats > /dev/null 2>&1 && break
   kill -0 "$launch_pid" 2> /dev/null || fail "the demo ended before it published stats"
   sleep 0.5
 done
 # Decimated clouds, as the README recommends for a recording (dynamic_reconfigure).
-timeout 30 rosrun dynamic_reconfigure dynparam set /fluid_sim/fluid_sim max_points 500 > "$work/dynparam.log" 2>&1 ||
+timeout $((30 * scale)) rosrun dynamic_reconfigure dynparam set /fluid_sim/fluid_sim max_points 500 > "$work/dynparam.log" 2>&1 ||
   fail "dynparam set max_points failed: $(cat "$work/dynparam.log")"
-timeout 60 rosbag record --duration=2 -O "$work/run.bag" /fluid_sim/particles /fluid_sim/stats \
+timeout $((60 * scale)) rosbag record --duration=2 -O "$work/run.bag" /fluid_sim/particles /fluid_sim/stats \
   /fluid_sim/contact_wrenches /tf /tf_static > "$work/record.log" 2>&1 ||
   fail "rosbag record failed: $(cat "$work/record.log")"
 [[ -f "$work/run.bag" ]] || fail "no bag written: $(cat "$work/record.log")"
