@@ -60,7 +60,12 @@ Emitters::Emitters(const SceneConfig& scene, const BodySet& bodies)
     if (e.max_particles > 0)
       nz.budget = e.max_particles;
     else if (std::isfinite(e.duration))
-      nz.budget = nz.points.size() * std::size_t(std::ceil(nz.speed * e.duration / s + 1e-9));
+    {
+      // Whole layers plus the closing part of one; bounded so that a long duration cannot overflow
+      // (the scene's max_fluid_particles bounds what is released anyway).
+      const double layers = std::ceil(nz.speed * e.duration / s + 1e-9);
+      nz.budget = std::size_t(std::min(n * layers, 1.0e15));
+    }
     EmitterTotal total;
     total.name = e.name;
     total.speed = nz.speed;
@@ -74,8 +79,8 @@ Emitters::Emitters(const SceneConfig& scene, const BodySet& bodies)
 std::size_t Emitters::expectedParticles() const
 {
   std::size_t n = 0;
-  for (const Nozzle& nz : nozzles_) n += nz.budget;
-  return std::min(n, max_fluid_particles_);
+  for (const Nozzle& nz : nozzles_) n = std::min(n + std::min(nz.budget, max_fluid_particles_), max_fluid_particles_);
+  return n;
 }
 
 void Emitters::setPose(std::size_t index, const Pose& pose)

@@ -50,7 +50,9 @@ struct Simulation::Impl
     for (const RegionConfig& sink : scene.sinks) sink_totals.push_back({sink.name, 0, 0.0, 0.0});
     // The emitters' water is stored from the start where its amount is known: no reallocation
     // while they run (fields and their sort scratch).
-    if (!emitters.empty()) fluid.reserve(fluid.size() + emitters.expectedParticles());
+    // Up to a million particles (56 MB of fields and sort scratch) are reserved; beyond that the
+    // storage grows geometrically (a reallocation per doubling, not per emission).
+    if (!emitters.empty()) fluid.reserve(fluid.size() + std::min<std::size_t>(emitters.expectedParticles(), 1000000));
     fill_report.trimmed = fill.trimmed;
     if (scene.fill.relax)
     {
