@@ -19,7 +19,7 @@ def main(path):
         for topic, msg_type in expected.items():
             if types.get(topic) != msg_type:
                 problems.append("%s: type %s, expected %s" % (topic, types.get(topic), msg_type))
-        if counts.get("/fluid_sim/stats", 0) < 5:
+        if counts.get("/fluid_sim/stats", 0) < 2:
             problems.append("only %d stats messages in two seconds" % counts.get("/fluid_sim/stats", 0))
         if counts.get("/fluid_sim/particles", 0) < 2:
             problems.append("only %d clouds in two seconds" % counts.get("/fluid_sim/particles", 0))
