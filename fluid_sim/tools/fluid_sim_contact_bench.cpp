@@ -2,10 +2,10 @@
 // contacts against Bullet's. The same dry scenarios (gravity only) run once on the core's free
 // bodies exactly as Simulation steps them (BodySet::stepFree with a ContactSolver, Eqs. A24-A26 of
 // docs/method.md) and once in a Bullet world (btDiscreteDynamicsWorld, the same shapes as Bullet
-// primitives); one table row per scenario, spacing and engine. Measures; it is not a test. Built
-// only where Bullet is installed (libbullet-dev): Bullet is no dependency of the package. The
-// figures and the decision they fed are in docs/method_notes.md, "Contacts: boundary particles
-// against Bullet".
+// primitives); one table row per scenario, spacing and engine. Measures; it is not a test. The
+// particle engine is `contacts.model: particles`; the integrated default (BulletContacts,
+// bullet_contacts.h) is tested in test/core/bullet_contact_test.cpp. The figures and the decision
+// they fed are in docs/method_notes.md, "Contacts: boundary particles against Bullet".
 //
 //   fluid_sim_contact_bench [--spacing S ...] [--scenario NAME ...] [--threads N]
 //                           [--friction MU] [--angle DEG ...] [--yaw DEG ...] [--speed V ...]
@@ -197,6 +197,7 @@ private:
     s.time_step.fixed = kDt;
     s.gravity = Vec3d(0.0, 0.0, -kG);
     s.contacts.friction = kMu;
+    s.contacts.model = ContactModel::Particles;  // this engine is the particle contacts (ContactSolver)
     s.domain = {Vec3d(-2, -2, -2), Vec3d(2, 2, 2)};
     // validate() wants a fluid block: a drop far from every body, never stepped here.
     FluidBlockConfig drop;

@@ -621,6 +621,11 @@ TEST(SceneLoader, DynamicKeysAndContactDefaults)
   EXPECT_FALSE(plain.boundaries[1].dynamic.enabled);
   EXPECT_DOUBLE_EQ(plain.contacts.friction, ContactConfig().friction);
   EXPECT_DOUBLE_EQ(parseScene(kBase + "contacts: {friction: 0}\n", "scene.yaml").contacts.friction, 0.0);
+  // Bullet's contacts by default; the particle contacts by name.
+  EXPECT_EQ(plain.contacts.model, ContactModel::Bullet);
+  EXPECT_EQ(parseScene(kBase + "contacts: {model: particles}\n", "scene.yaml").contacts.model, ContactModel::Particles);
+  EXPECT_EQ(parseScene(kBase + "contacts: {model: bullet, friction: 0.3}\n", "scene.yaml").contacts.model,
+            ContactModel::Bullet);
 }
 
 TEST(SceneLoader, BadDynamicAndContactKeysAreNamed)
@@ -645,6 +650,7 @@ TEST(SceneLoader, BadDynamicAndContactKeysAreNamed)
   expectError(kBase + "contacts: {frction: 0.2}\n", "contacts.frction", "did you mean 'friction'");
   expectError(kBase + "contacts: {friction: slippery}\n", "contacts.friction", "expected a number");
   expectError(kBase + "contacts: {friction: -1}\n", "contacts.friction", "must be finite and >= 0");
+  expectError(kBase + "contacts: {model: ode}\n", "contacts.model", "bullet");
 }
 
 namespace

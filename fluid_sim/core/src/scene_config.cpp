@@ -51,6 +51,11 @@ const char* toString(MlsSingularMode mode)
   return "?";
 }
 
+const char* toString(ContactModel model)
+{
+  return model == ContactModel::Bullet ? "bullet" : "particles";
+}
+
 const char* toString(ViscosityModel model)
 {
   switch (model)
@@ -216,6 +221,8 @@ void validateInstruments(const SceneConfig& s)
   }
   if (!std::isfinite(s.contacts.friction) || s.contacts.friction < 0.0)
     throw ConfigError("contacts.friction", "must be finite and >= 0, got " + str(s.contacts.friction));
+  if (s.contacts.model != ContactModel::Bullet && s.contacts.model != ContactModel::Particles)
+    throw ConfigError("contacts.model", "must be bullet or particles");
   if (s.spill.enabled && !std::isfinite(s.spill.below))
     throw ConfigError("spill.below", "must be finite, got " + str(s.spill.below));
 }

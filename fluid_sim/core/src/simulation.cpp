@@ -10,6 +10,7 @@
 #include <string>
 
 #include "fluid_sim/core/bodies.h"
+#include "fluid_sim/core/bullet_contacts.h"
 #include "fluid_sim/core/dfsph_solver.h"
 #include "fluid_sim/core/emitters.h"
 #include "fluid_sim/core/fill_relaxation.h"
@@ -44,14 +45,21 @@ struct Simulation::Impl
       , forces(scene.viscosity, constants)
       , solver(makePressureSolver({scene, constants, fluid, bodies, neighbors}, fluid))
       , dt_next(computeTimeStep(scene.time_step, fluid, constants.gravity, scene.spacing))
-      , contacts(scene.spacing, scene.contacts)
       , emitters(scene, bodies)
   {
     for (const RegionConfig& sink : scene.sinks) sink_totals.push_back({sink.name, 0, 0.0, 0.0});
+    // Without free bodies no contact model (no Bullet world) is built.
+    if (bodies.hasFree())
+    {
+      if (scene.contacts.model == ContactModel::Bullet)
+        contacts = std::make_unique<BulletContacts>(bodies, scene.spacing, scene.contacts);
+      else
+        contacts = std::make_unique<ContactSolver>(scene.spacing, scene.contacts);
+    }
     // The emitters' water is stored from the start where its amount is known: no reallocation
-    // while they run (fields and their sort scratch).
-    // Up to a million particles (56 MB of fields and sort scratch) are reserved; beyond that the
-    // storage grows geometrically (a reallocation per doubling, not per emission).
+    // while they run (fields and their sort scratch). Up to a million particles (56 MB of fields
+    // and sort scratch) are reserved; beyond that the storage grows geometrically (a
+    // reallocation per doubling, not per emission).
     if (!emitters.empty()) fluid.reserve(fluid.size() + std::min<std::size_t>(emitters.expectedParticles(), 1000000));
     fill_report.trimmed = fill.trimmed;
     if (scene.fill.relax)
@@ -121,7 +129,7 @@ struct Simulation::Impl
                          [&](std::size_t i, Index b) { return solver->wallPressure(i, b); });
     // Free bodies move under gravity, the fluid's wrench of this step and contacts, to their
     // poses at t + dt (Eqs. A24-A26; rigid_dynamics.cpp). Nothing for a scene without them.
-    if (bodies.hasFree()) bodies.stepFree(dt, scene.gravity, contacts);
+    if (contacts) bodies.stepFree(dt, scene.gravity, *contacts);
     t += dt;
     rep.time = t;
     rep.dt = dt;
@@ -192,9 +200,10 @@ struct Simulation::Impl
   double t = 0.0;                          // s, simulated time
   double dt_next;                          // s, the time step of the next step()
   std::size_t removed_total = 0;           // particles that left the domain since t = 0
-  ContactSolver contacts;                  // free bodies' contacts (unused without them)
-  std::vector<SinkTotal> sink_totals;      // per scene sink, since t = 0
-  Emitters emitters;                       // the scene's nozzles (none: nothing per step)
+  // Free bodies' contacts (contacts.model), built only for a scene with free bodies.
+  std::unique_ptr<ContactResolver> contacts;
+  std::vector<SinkTotal> sink_totals;  // per scene sink, since t = 0
+  Emitters emitters;                   // the scene's nozzles (none: nothing per step)
 };
 
 Simulation::Simulation(const SceneConfig& scene) : impl_(std::make_unique<Impl>(scene)) {}

@@ -13,7 +13,7 @@
 
 namespace fluid_sim
 {
-class ContactSolver;  // rigid_dynamics.h
+class ContactResolver;  // rigid_dynamics.h
 
 /// One rigid body and its motion.
 struct Body
@@ -113,9 +113,10 @@ public:
   void poseMoving(double time);
 
   /// Free bodies: one step of dt (s) under gravity (m/s^2), the fluid's force and torque of the
-  /// step just solved (Body::force, torque) and contacts (Eqs. A24-A26, rigid_dynamics.cpp), and
-  /// their particles written at the new poses (poseMoving() leaves free bodies alone).
-  void stepFree(double dt, const Vec3d& gravity, ContactSolver& contacts);
+  /// step just solved (Body::force, torque) and contacts (Eqs. A24-A27, rigid_dynamics.cpp,
+  /// bullet_contacts.cpp), and their particles written at the new poses (poseMoving() leaves free
+  /// bodies alone).
+  void stepFree(double dt, const Vec3d& gravity, ContactResolver& contacts);
   bool hasFree() const
   {
     return has_free_;

@@ -339,11 +339,20 @@ struct EmitterConfig
   bool externally_posed = false;  // posed by the caller (set with frame)
 };
 
+/// How contacts between bodies are found and resolved (docs/method.md, Free bodies, Eq. A26).
+enum class ContactModel
+{
+  Bullet,    // Bullet's collision detection and contact solver on the bodies' shapes (bullet_contacts.h)
+  Particles  // impulses on pairs of boundary particles (ContactSolver, rigid_dynamics.h)
+};
+
 /// Contacts between bodies, where a free body is involved (docs/method.md, Free bodies).
 struct ContactConfig
 {
-  double friction = 0.5;  // Coulomb coefficient, unit-less, >= 0     key: contacts.friction
+  double friction = 0.5;                      // Coulomb coefficient, unit-less, >= 0   key: contacts.friction
+  ContactModel model = ContactModel::Bullet;  // key: contacts.model (bullet | particles)
 };
+const char* toString(ContactModel model);
 
 struct SceneConfig
 {
