@@ -9,6 +9,8 @@
 
 #include "fluid_sim/core/simulation.h"
 
+#include "small_scene.h"
+
 using namespace fluid_sim;
 
 namespace
@@ -37,18 +39,7 @@ EmitterConfig tap(double flow_rate, double duration)
   return e;
 }
 
-std::string errorKey(const SceneConfig& s)
-{
-  try
-  {
-    Simulation sim(s);
-  }
-  catch (const ConfigError& e)
-  {
-    return e.key();
-  }
-  return "<no error>";
-}
+using fluid_sim::test::errorKey;
 
 double closestPair(const std::vector<Vec3>& x)
 {

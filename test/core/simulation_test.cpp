@@ -18,20 +18,9 @@ using namespace fluid_sim;
 
 namespace
 {
+using fluid_sim::test::errorKey;
 using fluid_sim::test::smallScene;
 
-std::string errorKey(const SceneConfig& s)
-{
-  try
-  {
-    Simulation sim(s);
-  }
-  catch (const ConfigError& e)
-  {
-    return e.key();
-  }
-  return "<no error>";
-}
 }  // namespace
 
 TEST(SceneValidation, BadValuesNameTheirKey)

@@ -502,6 +502,15 @@ ProbeConfig readProbe(const Entry& e)
   return probe;
 }
 
+/// A particle budget (max_fluid_particles, max_boundary_particles, an emitter's max_particles): a
+/// whole number in [1, 1e12] (YAML may write it as 2.0e6).
+std::size_t readParticleCount(const Entry& e)
+{
+  const double n = readScalar<double>(e);
+  checkValue(e, n >= 1.0 && n <= 1.0e12 && n == std::floor(n), "must be a whole number >= 1");
+  return static_cast<std::size_t>(n);
+}
+
 /// One entry of `emitters`: {name, circle: {radius} | rectangle: {size: [w, h]}, pose: {xyz,
 /// rpy} (or pose: {xyz} with direction: [x, y, z]), speed | flow_rate, start, duration, body,
 /// max_particles}.
@@ -555,12 +564,7 @@ EmitterConfig readEmitter(const Entry& e)
     checkValue(*frame, !em.frame.empty(), "must name a tf frame");
     em.externally_posed = true;
   }
-  if (max_particles)
-  {
-    const double n = readScalar<double>(*max_particles);
-    checkValue(*max_particles, n >= 1.0 && n <= 1.0e12 && n == std::floor(n), "must be a whole number >= 1");
-    em.max_particles = static_cast<std::size_t>(n);
-  }
+  if (max_particles) em.max_particles = readParticleCount(*max_particles);
   return em;
 }
 
@@ -812,18 +816,8 @@ SceneConfig readScene(const YAML::Node& root, LoadContext& ctx)
   MapReader r({root, ""});
   SceneConfig s;
   r.read("spacing", s.spacing);
-  if (auto e = r.get("max_boundary_particles"))
-  {
-    const double n = readScalar<double>(*e);
-    checkValue(*e, n >= 1.0 && n <= 1.0e12 && n == std::floor(n), "must be a whole number >= 1");
-    s.max_boundary_particles = static_cast<std::size_t>(n);
-  }
-  if (auto e = r.get("max_fluid_particles"))
-  {
-    const double n = readScalar<double>(*e);
-    checkValue(*e, n >= 1.0 && n <= 1.0e12 && n == std::floor(n), "must be a whole number >= 1");
-    s.max_fluid_particles = static_cast<std::size_t>(n);
-  }
+  if (auto e = r.get("max_boundary_particles")) s.max_boundary_particles = readParticleCount(*e);
+  if (auto e = r.get("max_fluid_particles")) s.max_fluid_particles = readParticleCount(*e);
   ctx.spacing = s.spacing;
   ctx.max_boundary_particles = s.max_boundary_particles;
   ctx.warnings = &s.warnings;
