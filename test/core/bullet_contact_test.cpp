@@ -137,9 +137,46 @@ TEST(BulletContacts, BallAndCylinderRestAtTheirExactHeights)
   EXPECT_NEAR(d.bodies[3].centerOfMass().z(), 0.03, 0.005 * kS);
   EXPECT_LT(d.bodies[1].v_com.norm(), 1e-4);
   EXPECT_LT(d.bodies[3].v_com.norm(), 1e-3);  // 3.5e-4 m/s: its end face meets the floor at changing points
-  // The lying cylinder rolls: Bullet's cylinder meets a plane at one point per step, not along
-  // the whole line, and landing from 5 mm sets it rolling at about 4.7 rad/s (12 cm/s) with
-  // nothing to stop it (a known limit, docs/method_notes.md); its speed is not tested.
+  // The lying cylinder stays where it landed. Without the rolling resistance (contacts.
+  // rolling_resistance 0) Bullet sets it rolling by itself, at 5.3 rad/s (13 cm/s) by 0.6 s.
+  EXPECT_LT(d.bodies[2].omega.norm(), 1e-3);
+  EXPECT_LT(d.bodies[2].v_com.norm(), 1e-3);
+  EXPECT_NEAR(d.bodies[2].centerOfMass().x(), 0.26, 0.025 * kS);  // 0.5 mm
+}
+
+TEST(BulletContacts, RollingResistanceSlowsARollingBallAtItsRate)
+{
+  // A ball r 3 cm rolling at 0.3 m/s on the floor: the rolling resistance's torque c r N about
+  // the contact slows it at a = c r N r / I_contact = c g / (1 + 2/5) (solid sphere), 0.070 m/s^2
+  // at c = 0.01; without it, it rolls on at constant speed.
+  for (const double c : {0.0, 0.01})
+  {
+    BoundaryConfig ball;
+    ball.name = "ball";
+    ball.type = ShapeType::Sphere;
+    ball.sphere = {Vec3d::Zero(), 0.03};
+    ball.pose.translation = Vec3d(0.05, 0.2, 0.03);
+    ball.dynamic.enabled = true;
+    ball.dynamic.density = 1500.0;
+    ball.dynamic.linear_velocity = Vec3d(0.3, 0, 0);
+    ball.dynamic.angular_velocity = Vec3d(0, 0.3 / 0.03, 0);  // rolling without slipping
+    SceneConfig s = Dry::sceneOf({tankBox(Vec3d(0.4, 0.4, 0.4)), ball}, 0.5);
+    s.contacts.rolling_resistance = c;
+    BodySet bodies(s);
+    BulletContacts contacts(bodies, s.spacing, s.contacts);
+    double v02 = 0.0;
+    for (int i = 1; i <= 600; ++i)
+    {
+      bodies.poseMoving((i - 1) * kDt);
+      bodies.stepFree(kDt, s.gravity, contacts);
+      if (i == 200) v02 = bodies[1].v_com.x();
+    }
+    const double decel = (v02 - bodies[1].v_com.x()) / 0.4;  // m/s^2, over 0.2-0.6 s
+    std::printf("rolling ball, c = %.2f: speed %.4f m/s at 0.6 s, deceleration %.4f m/s^2 (%.4f)\n", c,
+                bodies[1].v_com.x(), decel, c * kG / 1.4);
+    EXPECT_NEAR(decel, c * kG / 1.4, 0.1 * 0.01 * kG / 1.4);
+    EXPECT_NEAR(bodies[1].centerOfMass().z(), 0.03, 0.005 * kS);
+  }
 }
 
 TEST(BulletContacts, StackOfTwoBoxesRests)

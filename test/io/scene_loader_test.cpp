@@ -626,6 +626,9 @@ TEST(SceneLoader, DynamicKeysAndContactDefaults)
   EXPECT_EQ(parseScene(kBase + "contacts: {model: particles}\n", "scene.yaml").contacts.model, ContactModel::Particles);
   EXPECT_EQ(parseScene(kBase + "contacts: {model: bullet, friction: 0.3}\n", "scene.yaml").contacts.model,
             ContactModel::Bullet);
+  EXPECT_DOUBLE_EQ(plain.contacts.rolling_resistance, 0.01);
+  EXPECT_DOUBLE_EQ(parseScene(kBase + "contacts: {rolling_resistance: 0}\n", "scene.yaml").contacts.rolling_resistance,
+                   0.0);
 }
 
 TEST(SceneLoader, BadDynamicAndContactKeysAreNamed)
@@ -651,6 +654,8 @@ TEST(SceneLoader, BadDynamicAndContactKeysAreNamed)
   expectError(kBase + "contacts: {friction: slippery}\n", "contacts.friction", "expected a number");
   expectError(kBase + "contacts: {friction: -1}\n", "contacts.friction", "must be finite and >= 0");
   expectError(kBase + "contacts: {model: ode}\n", "contacts.model", "bullet");
+  expectError(kBase + "contacts: {rolling_resistance: -0.1}\n", "contacts.rolling_resistance",
+              "must be finite and >= 0, got -0.1");
 }
 
 namespace

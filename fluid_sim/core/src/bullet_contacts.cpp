@@ -447,6 +447,15 @@ BulletContacts::BulletContacts(const BodySet& bodies, double spacing, const Cont
     // Continuous collision detection when a step moves the body by more than half the radius of
     // a sphere inside it: a speculative contact from the swept sphere.
     const double r = Impl::innerRadius(b);
+    // Rolling resistance: Bullet combines two bodies' values as rolling_a friction_b + rolling_b
+    // friction_a (a lever, m), so the free body's own value divided by the other's friction sqrt(mu)
+    // gives the lever rolling_resistance r against a kinematic body (and the levers' sum between
+    // two free bodies). Without it a cylinder lying on the floor starts rolling by itself and
+    // speeds up, in a plain Bullet world too (docs/method_notes.md, Free bodies). Not for a box,
+    // which cannot roll: there the extra constraints only stir a resting stack (late speed 6e-4
+    // instead of 2e-4 m/s).
+    if (friction > 0 && b.type != ShapeType::Box)
+      rb->setRollingFriction(btScalar(config.rolling_resistance * r) / friction);
     if (r > 0.0)
     {
       rb->setCcdMotionThreshold(btScalar(0.5 * r));

@@ -221,6 +221,9 @@ void validateInstruments(const SceneConfig& s)
   }
   if (!std::isfinite(s.contacts.friction) || s.contacts.friction < 0.0)
     throw ConfigError("contacts.friction", "must be finite and >= 0, got " + str(s.contacts.friction));
+  if (!std::isfinite(s.contacts.rolling_resistance) || s.contacts.rolling_resistance < 0.0)
+    throw ConfigError("contacts.rolling_resistance",
+                      "must be finite and >= 0, got " + str(s.contacts.rolling_resistance));
   if (s.contacts.model != ContactModel::Bullet && s.contacts.model != ContactModel::Particles)
     throw ConfigError("contacts.model", "must be bullet or particles");
   if (s.spill.enabled && !std::isfinite(s.spill.below))

@@ -418,12 +418,13 @@ DynamicConfig readDynamic(const Entry& e)
   return d;
 }
 
-/// `contacts: {friction, model}`.
+/// `contacts: {friction, model, rolling_resistance}`.
 ContactConfig readContacts(const Entry& e)
 {
   MapReader r(e);
   ContactConfig c;
   r.read("friction", c.friction);
+  r.read("rolling_resistance", c.rolling_resistance);
   if (auto m = r.get("model")) c.model = readNamed(*m, {ContactModel::Bullet, ContactModel::Particles});
   r.finish();
   return c;

@@ -351,6 +351,11 @@ struct ContactConfig
 {
   double friction = 0.5;                      // Coulomb coefficient, unit-less, >= 0   key: contacts.friction
   ContactModel model = ContactModel::Bullet;  // key: contacts.model (bullet | particles)
+  // Rolling resistance (model bullet): a free body's rolling is resisted by a torque up to
+  // rolling_resistance x r x N, r its inner radius (m), N the normal force (N). Unit-less, >= 0.
+  // Bullet's contacts set a round body lying on a face rolling by themselves (docs/method_notes.md,
+  // Free bodies); 0.01 stops that for radii of 1-20 cm.   key: contacts.rolling_resistance
+  double rolling_resistance = 0.01;
 };
 const char* toString(ContactModel model);
 
