@@ -6,7 +6,9 @@
 
 #include <cmath>
 #include <cstdio>
+#include <limits>
 
+#include "fluid_sim/core/bodies.h"
 #include "fluid_sim/core/rigid_dynamics.h"
 #include "fluid_sim/core/simulation.h"
 
@@ -174,6 +176,55 @@ TEST(FreeBody, FliesOnAParabolaAndKeepsItsSpinWithoutFluid)
   const Vec3 xb = sim.boundaryPositions()[info.first_particle];
   const Vec3d expected = info.com_velocity + info.angular_velocity.cross(xb.cast<double>() - info.center_of_mass);
   EXPECT_TRUE(sim.boundaryVelocities()[info.first_particle].cast<double>().isApprox(expected, 1e-5));
+}
+
+namespace
+{
+/// Contacts that make every free body's velocity NaN (a stand-in for a contact solver that failed).
+struct PoisonedContacts : ContactResolver
+{
+  void apply(BodySet& bodies, double) override
+  {
+    for (std::size_t k = 0; k < bodies.size(); ++k)
+      if (bodies[k].free) bodies[k].v_com.x() = std::numeric_limits<double>::quiet_NaN();
+  }
+};
+struct NoContacts : ContactResolver
+{
+  void apply(BodySet&, double) override {}
+};
+}  // namespace
+
+TEST(FreeBody, ANonFiniteStepIsNamedAndLeavesThePoseAlone)
+{
+  // What the demo once showed under load: a free body whose step gave NaN spread to every
+  // particle in the next step. Now the step names the body and where the NaN came from.
+  SceneConfig s = tank(0.05, Vec3d(1, 1, 1), 0.0);
+  s.boundaries.clear();
+  s.boundaries.push_back(freeBox("brick", Vec3d(-0.1, -0.05, -0.025), Vec3d(0.1, 0.05, 0.025), 800.0));
+  s.boundaries.back().pose.translation = Vec3d(0.5, 0.5, 0.5);
+  {
+    BodySet bodies(s);
+    NoContacts none;
+    bodies[0].force = Vec3d(std::numeric_limits<double>::infinity(), 0, 0);  // N, as from a blown-up fluid
+    const std::string fault = bodies.stepFree(0.001, s.gravity, none);
+    EXPECT_NE(fault.find("'brick'"), std::string::npos) << fault;
+    EXPECT_NE(fault.find("from the fluid's wrench"), std::string::npos) << fault;
+    EXPECT_TRUE(bodies[0].pose.translation.isApprox(Vec3d(0.5, 0.5, 0.5))) << "the pose stays finite";
+  }
+  {
+    BodySet bodies(s);
+    PoisonedContacts poison;
+    const std::string fault = bodies.stepFree(0.001, s.gravity, poison);
+    EXPECT_NE(fault.find("'brick'"), std::string::npos) << fault;
+    EXPECT_NE(fault.find("from the contacts"), std::string::npos) << fault;
+    EXPECT_TRUE(bodies[0].pose.translation.allFinite());
+  }
+  {
+    BodySet bodies(s);
+    NoContacts none;
+    EXPECT_EQ(bodies.stepFree(0.001, s.gravity, none), "");  // a finite step says nothing
+  }
 }
 
 namespace

@@ -34,11 +34,13 @@ fail() {
   fluid_sim demo.launch required:=false headless:=true duration:=60 real_time_factor:=0.25 > "$work/launch.log" 2>&1 &
 launch_pid=$!
 # Recording starts once the node publishes stats (it has built its scene).
+publishing=0
 for _ in $(seq 1 $((240 * scale))); do
-  timeout 5 rostopic echo -n 1 /fluid_sim/stats > /dev/null 2>&1 && break
+  timeout 5 rostopic echo -n 1 /fluid_sim/stats > /dev/null 2>&1 && publishing=1 && break
   kill -0 "$launch_pid" 2> /dev/null || fail "the demo ended before it published stats"
   sleep 0.5
 done
+((publishing)) || fail "no stats from the node after $((240 * scale)) tries"
 # Decimated clouds, as the README recommends for a recording (dynamic_reconfigure).
 timeout $((30 * scale)) rosrun dynamic_reconfigure dynparam set /fluid_sim/fluid_sim max_points 500 > "$work/dynparam.log" 2>&1 ||
   fail "dynparam set max_points failed: $(cat "$work/dynparam.log")"
@@ -46,5 +48,11 @@ timeout $((60 * scale)) rosbag record --duration=2 -O "$work/run.bag" /fluid_sim
   /fluid_sim/contact_wrenches /tf /tf_static > "$work/record.log" 2>&1 ||
   fail "rosbag record failed: $(cat "$work/record.log")"
 [[ -f "$work/run.bag" ]] || fail "no bag written: $(cat "$work/record.log")"
-/usr/bin/python3 "$ROOT/test/ros/read_bag.py" "$work/run.bag" || fail "the bag does not read back as expected"
+if ! /usr/bin/python3 "$ROOT/test/ros/read_bag.py" "$work/run.bag"; then
+  # What was recorded, and whether the node was keeping up (its stats), for the failure's cause.
+  rosbag info "$work/run.bag" >&2
+  cat "$work/record.log" >&2
+  timeout 5 rostopic echo -n 1 /fluid_sim/stats >&2
+  fail "the bag does not read back as expected"
+fi
 echo "record_test: ok"

@@ -20,6 +20,11 @@ std::string num(double v)
   return os.str();
 }
 
+std::string vecText(const Vec3d& v)
+{
+  return "[" + num(v.x()) + ", " + num(v.y()) + ", " + num(v.z()) + "]";
+}
+
 /// |d|^2 I - d d^T: the parallel-axis term per unit mass (m^2).
 Mat3d parallelAxis(const Vec3d& d)
 {
@@ -312,9 +317,9 @@ void ContactSolver::apply(BodySet& bodies, double dt)
 
 // ------------------------------------------------------------------------------ free bodies
 
-void BodySet::stepFree(double dt, const Vec3d& gravity, ContactResolver& contacts)
+std::string BodySet::stepFree(double dt, const Vec3d& gravity, ContactResolver& contacts)
 {
-  if (!has_free_) return;
+  if (!has_free_) return "";
   std::vector<Vec3d> v_old, w_old;
   for (Body& body : bodies_)
   {
@@ -331,13 +336,24 @@ void BodySet::stepFree(double dt, const Vec3d& gravity, ContactResolver& contact
     const Mat3d inertia = R * body.inertia_local * R.transpose();
     body.omega += dt * inertia.inverse() * (torque_com - body.omega.cross(inertia * body.omega));
   }
+  // A blow-up of the fluid reaches a free body as a non-finite wrench; name it before contacts.
+  const auto finite = [](const Body& b) { return b.v_com.allFinite() && b.omega.allFinite(); };
+  std::string fault;
+  for (const Body& body : bodies_)
+    if (body.free && fault.empty() && !finite(body))
+      fault = "free body '" + body.config.name + "': non-finite velocity from the fluid's wrench (force " +
+              vecText(body.force) + " N, torque " + vecText(body.torque) + " N m)";
   // Eq. A26 (particles) or A26b (Bullet): contacts change the new velocities before the positions
   // move with them.
   contacts.apply(*this, dt);
+  for (const Body& body : bodies_)
+    if (body.free && fault.empty() && !finite(body))
+      fault = "free body '" + body.config.name + "': non-finite velocity from the contacts (contact force " +
+              vecText(body.contact_force) + " N)";
   for (std::size_t k = 0; k < bodies_.size(); ++k)
   {
     Body& body = bodies_[k];
-    if (!body.free) continue;
+    if (!body.free || !finite(body)) continue;  // left at its pose; the step is reported unstable
     // Positions with the new velocities (symplectic Euler, as the fluid's Eq. A16): the centre of
     // mass moves by dt v, the orientation turns by dt omega about it.
     const Vec3d c = body.centerOfMass() + dt * body.v_com;
@@ -353,6 +369,7 @@ void BodySet::stepFree(double dt, const Vec3d& gravity, ContactResolver& contact
     body.a_origin = a_com + body.alpha.cross(arm) + body.omega.cross(body.omega.cross(arm));
     pose(body, 0.0, true);  // its particles at t + dt, with the new velocities
   }
+  return fault;
 }
 
 }  // namespace fluid_sim

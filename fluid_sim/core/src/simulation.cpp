@@ -129,14 +129,20 @@ struct Simulation::Impl
                          [&](std::size_t i, Index b) { return solver->wallPressure(i, b); });
     // Free bodies move under gravity, the fluid's wrench of this step and contacts, to their
     // poses at t + dt (Eqs. A24-A26; rigid_dynamics.cpp). Nothing for a scene without them.
-    if (contacts) bodies.stepFree(dt, scene.gravity, *contacts);
+    const std::string body_fault = contacts ? bodies.stepFree(dt, scene.gravity, *contacts) : std::string();
     t += dt;
     rep.time = t;
     rep.dt = dt;
 
     // 7. Blow-ups are reported and the state kept as it is for inspection; otherwise particles
-    //    that left the domain are removed (step_checks.cpp).
+    //    that left the domain are removed (step_checks.cpp). A free body that came out of its step
+    //    non-finite is one too (it would spread to the water in the next step).
     checkStability(fluid, scene, constants.mass, dt, rep);
+    if (!body_fault.empty() && !rep.unstable)
+    {
+      rep.unstable = true;
+      rep.reason = body_fault;
+    }
     if (!rep.unstable)
     {
       rep.removed = removeOutsideDomain(fluid, scene.domain);

@@ -115,8 +115,10 @@ public:
   /// Free bodies: one step of dt (s) under gravity (m/s^2), the fluid's force and torque of the
   /// step just solved (Body::force, torque) and contacts (Eqs. A24-A27, rigid_dynamics.cpp,
   /// bullet_contacts.cpp), and their particles written at the new poses (poseMoving() leaves free
-  /// bodies alone).
-  void stepFree(double dt, const Vec3d& gravity, ContactResolver& contacts);
+  /// bodies alone). Returns "" or, when a free body's velocities came out non-finite, what went
+  /// wrong (the body's name, and whether the fluid's wrench or the contacts brought it), for the
+  /// step's report: such a body is left as it is and the caller reports the step unstable.
+  std::string stepFree(double dt, const Vec3d& gravity, ContactResolver& contacts);
   bool hasFree() const
   {
     return has_free_;
