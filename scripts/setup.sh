@@ -25,8 +25,9 @@ PACKAGES=(
   python3-geometry-msgs python3-sensor-msgs python3-tf2-msgs
   libtf2-ros-dev tf2-tools ros-robot-state-publisher
   liburdfdom-dev libassimp-dev libeigen3-dev libtbb-dev libgtest-dev libyaml-cpp-dev libtinyxml2-dev
+  libbullet-dev
   python3-roslaunch python3-rostopic python3-rosnode python3-rosparam python3-rosmsg
-  python3-rostest rosbash
+  python3-rostest rosbash python3-rosbag
   libnodeletlib-dev libnodeletlib-tools libnodelet-dev python3-nodelet pluginlib-dev
   libdynamic-reconfigure-config-init-mutex-dev python3-dynamic-reconfigure
   libstd-srvs-dev ros-std-srvs python3-std-srvs

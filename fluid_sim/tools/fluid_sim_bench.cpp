@@ -44,6 +44,8 @@ struct Row
   double setup_s = 0.0;      // s, Simulation construction (sampling, boundary volumes)
   int steps = 0;
   double sim_time = 0.0;                   // s, simulated time at the end
+  double dt_mean = 0.0;                    // s, simulated time per measured step (mean)
+  double real_time_factor = 0.0;           // simulated s per wall-clock s of step() over the measured steps
   double ms_mean = 0.0;                    // ms wall clock per step() (mean)
   double ms_median = 0.0;                  // ms wall clock per step() (median)
   double divergence_iterations = 0;        // per step (mean)
@@ -51,6 +53,8 @@ struct Row
   double ns_per_particle_iteration = 0.0;  // ns in the two solves / (fluid particles * iterations)
   double ms_neighbors = 0.0;               // ms per step in the neighbour search (mean)
   double ms_solves = 0.0;                  // ms per step in the divergence + density solves (mean)
+  double ms_divergence = 0.0;              // ms per step in the divergence solve (mean)
+  double ms_density = 0.0;                 // ms per step in the density solve and the integration (mean)
   double density_error = 0.0;              // relative, mean over the measured steps
   double pairs_per_particle = 0.0;         // fluid-fluid + fluid-boundary pairs per fluid particle (mean)
   double ns_per_pair_pass = 0.0;           // ns in the two solves / (pairs x iterations x 2 passes)
@@ -109,7 +113,9 @@ Row runOne(const fluid_sim::SceneConfig& scene, int warmup, int steps)
 
   std::vector<double> wall_ms;
   wall_ms.reserve(static_cast<std::size_t>(steps));
+  const double t_start = sim.time();  // s
   double sum_div = 0.0, sum_dens = 0.0, sum_nbr = 0.0, sum_solve_ms = 0.0, sum_err = 0.0;
+  double sum_div_ms = 0.0, sum_dens_ms = 0.0;
   double particle_iterations = 0.0;  // sum over steps of fluid particles * (div + density iterations)
   double pair_passes = 0.0;          // sum over steps of pairs * iterations * 2 (a^p pass + Jacobi pass)
   double sum_pairs_per_particle = 0.0;
@@ -122,6 +128,8 @@ Row runOne(const fluid_sim::SceneConfig& scene, int warmup, int steps)
     sum_dens += report.density_iterations;
     sum_nbr += report.ms_neighbors;
     sum_solve_ms += report.ms_divergence + report.ms_density;
+    sum_div_ms += report.ms_divergence;
+    sum_dens_ms += report.ms_density;
     sum_err += report.density_error;
     const double iterations = static_cast<double>(report.divergence_iterations + report.density_iterations);
     particle_iterations += static_cast<double>(report.fluid_particles) * iterations;
@@ -143,11 +151,15 @@ Row runOne(const fluid_sim::SceneConfig& scene, int warmup, int steps)
   double sum_ms = 0.0;
   for (double ms : wall_ms) sum_ms += ms;
   row.ms_mean = sum_ms / n;
+  row.dt_mean = (row.sim_time - t_start) / n;
+  row.real_time_factor = sum_ms > 0.0 ? (row.sim_time - t_start) / (sum_ms * 1.0e-3) : 0.0;
   row.ms_median = median(wall_ms);
   row.divergence_iterations = sum_div / n;
   row.density_iterations = sum_dens / n;
   row.ms_neighbors = sum_nbr / n;
   row.ms_solves = sum_solve_ms / n;
+  row.ms_divergence = sum_div_ms / n;
+  row.ms_density = sum_dens_ms / n;
   row.density_error = sum_err / n;
   row.ns_per_particle_iteration = particle_iterations > 0.0 ? sum_solve_ms * 1.0e6 / particle_iterations : 0.0;
   row.pairs_per_particle = sum_pairs_per_particle / n;
@@ -161,11 +173,11 @@ Row runOne(const fluid_sim::SceneConfig& scene, int warmup, int steps)
 
 void printHeader()
 {
-  std::printf("%8s %-9s %9s %9s %7s %9s %9s %7s %7s %10s %7s %8s %8s %10s %9s %7s\n", "spacing", "method", "fluid",
-              "boundary", "setup", "ms/step", "median", "div_it", "dens_it", "ns/(p*it)", "pairs/p", "ns/pair",
-              "nbr_ms", "dens_err", "peak_B/p", "flags");
-  std::printf("%8s %-9s %9s %9s %7s %9s %9s %7s %7s %10s %7s %8s %8s %10s %9s %7s\n", "m", "", "", "", "s", "mean", "",
-              "/step", "/step", "ns", "", "/pass", "/step", "mean", "B", "");
+  std::printf("%8s %-9s %9s %9s %7s %9s %9s %7s %6s %7s %7s %10s %7s %8s %8s %10s %9s %7s\n", "spacing", "method",
+              "fluid", "boundary", "setup", "ms/step", "median", "dt", "rtf", "div_it", "dens_it", "ns/(p*it)",
+              "pairs/p", "ns/pair", "nbr_ms", "dens_err", "peak_B/p", "flags");
+  std::printf("%8s %-9s %9s %9s %7s %9s %9s %7s %6s %7s %7s %10s %7s %8s %8s %10s %9s %7s\n", "m", "", "", "", "s",
+              "mean", "", "ms", "", "/step", "/step", "ns", "", "/pass", "/step", "mean", "B", "");
   std::fflush(stdout);
 }
 
@@ -176,10 +188,12 @@ void printRow(const Row& r)
     flags = "UNSTABLE";
   else if (r.not_converged > 0)
     flags = "nc=" + std::to_string(r.not_converged);
-  std::printf("%8.4f %-9s %9zu %9zu %7.2f %9.3f %9.3f %7.2f %7.2f %10.2f %7.1f %8.3f %8.3f %10.2e %9.0f %7s\n",
-              r.spacing, r.method.c_str(), r.fluid, r.boundary, r.setup_s, r.ms_mean, r.ms_median,
-              r.divergence_iterations, r.density_iterations, r.ns_per_particle_iteration, r.pairs_per_particle,
-              r.ns_per_pair_pass, r.ms_neighbors, r.density_error, r.peak_bytes_per_particle, flags.c_str());
+  std::printf(
+      "%8.4f %-9s %9zu %9zu %7.2f %9.3f %9.3f %7.3f %6.3f %7.2f %7.2f %10.2f %7.1f %8.3f %8.3f %10.2e %9.0f %7s\n",
+      r.spacing, r.method.c_str(), r.fluid, r.boundary, r.setup_s, r.ms_mean, r.ms_median, r.dt_mean * 1e3,
+      r.real_time_factor, r.divergence_iterations, r.density_iterations, r.ns_per_particle_iteration,
+      r.pairs_per_particle, r.ns_per_pair_pass, r.ms_neighbors, r.density_error, r.peak_bytes_per_particle,
+      flags.c_str());
   std::fflush(stdout);
 }
 
@@ -192,6 +206,8 @@ nlohmann::json toJson(const Row& r)
                         {"setup_s", r.setup_s},
                         {"steps", r.steps},
                         {"sim_time_s", r.sim_time},
+                        {"time_step_mean_s", r.dt_mean},
+                        {"real_time_factor", r.real_time_factor},
                         {"ms_per_step_mean", r.ms_mean},
                         {"ms_per_step_median", r.ms_median},
                         {"divergence_iterations_per_step", r.divergence_iterations},
@@ -199,6 +215,8 @@ nlohmann::json toJson(const Row& r)
                         {"ns_per_particle_iteration", r.ns_per_particle_iteration},
                         {"ms_neighbors_per_step", r.ms_neighbors},
                         {"ms_solves_per_step", r.ms_solves},
+                        {"ms_divergence_per_step", r.ms_divergence},
+                        {"ms_density_per_step", r.ms_density},
                         {"density_error_mean", r.density_error},
                         {"pairs_per_particle", r.pairs_per_particle},
                         {"ns_per_pair_pass", r.ns_per_pair_pass},
@@ -306,7 +324,8 @@ int main(int argc, char** argv)
   for (const std::string& o : overrides) std::printf("  --set %s\n", o.c_str());
   for (const std::string& w : scenes.front().warnings) std::printf("  warning: %s\n", w.c_str());
   std::printf(
-      "ms/step: wall clock of Simulation::step(); ns/(p*it): time in the two solves / (fluid particles x "
+      "ms/step: wall clock of Simulation::step(); dt: simulated time per step; rtf: simulated / wall-clock time "
+      "of the steps (real-time factor of the solver alone);\nns/(p*it): time in the two solves / (fluid particles x "
       "iterations);\npairs/p: fluid-fluid + fluid-boundary pairs per fluid particle; ns/pair: time in the two solves / "
       "(pairs x iterations x 2 passes);\nnbr_ms: neighbour search per step; dens_err: mean relative density error; "
       "peak_B/p: PROCESS "

@@ -1,6 +1,6 @@
 // fluid_sim_run: runs a scene headless and writes PLY frames, stats.csv and summary.json, the
 // instruments' regions.csv, probes.csv and spill.csv when the scene declares them, bodies.csv
-// when it has free bodies, and sinks.csv when it has sinks.
+// when it has free bodies, sinks.csv when it has sinks and emitters.csv when it has emitters.
 //
 //   fluid_sim_run SCENE.yaml [--duration S] [--out DIR] [--set key.path=value ...] [--threads N]
 //
@@ -197,6 +197,12 @@ void printSummary(const fluid_sim::io::RunSummary& s, const fluid_sim::FillRepor
   for (const auto& sink : s.sinks)
     std::printf("sink     %s: drained %zu particles, %.6g m^3, %.6g kg\n", sink.name.c_str(), sink.particles,
                 sink.volume, sink.mass);
+  for (const auto& e : s.emitters)
+    std::printf(
+        "emitter  %s: released %zu particles, %.6g m^3 (nozzle %zu points at %.6g m/s: %.6g m^3/s), %zu "
+        "points blocked%s\n",
+        e.name.c_str(), e.particles, e.volume, e.points, e.speed, e.flow_rate, e.blocked,
+        e.budget_reached ? ", stopped at its particle budget" : "");
   std::printf("status   %s%s%s\n", s.status.c_str(), s.reason.empty() ? "" : ": ", s.reason.c_str());
   std::printf("output   %s (%zu frames)\n", out_dir.string().c_str(), frames);
 }
@@ -220,6 +226,12 @@ int run(const Options& options)
   {
     const SceneConfig scene = io::loadScene(options.scene, options.overrides);
     for (const std::string& warning : scene.warnings) std::cerr << "warning: " << warning << '\n';
+    // A nozzle fixed in a tf frame needs tf: the ROS node's, not the runner's.
+    for (std::size_t i = 0; i < scene.emitters.size(); ++i)
+      if (!scene.emitters[i].frame.empty())
+        throw ConfigError("emitters[" + std::to_string(i) + "].frame",
+                          "'" + scene.emitters[i].frame +
+                              "' is a tf frame, which only the ROS node follows; give the runner a pose or a body");
     sim = std::make_unique<Simulation>(scene);
     instruments = std::make_unique<Measurements>(*sim);  // a region's body must be one of sim's
   }
@@ -270,6 +282,9 @@ int run(const Options& options)
   if (io::hasFreeBodies(*sim)) bodies_csv = std::make_unique<io::BodiesCsvWriter>((out_dir / "bodies.csv").string());
   std::unique_ptr<io::SinksCsvWriter> sinks_csv;
   if (!scene.sinks.empty()) sinks_csv = std::make_unique<io::SinksCsvWriter>((out_dir / "sinks.csv").string());
+  std::unique_ptr<io::EmittersCsvWriter> emitters_csv;
+  if (!scene.emitters.empty())
+    emitters_csv = std::make_unique<io::EmittersCsvWriter>((out_dir / "emitters.csv").string());
   std::size_t measure_slot = 0;  // the next measurement is due at measure_slot * frame_interval
   double last_measured = -1.0;   // s, simulated time of the last measurement
   std::size_t measurements = 0;  // of the instruments
@@ -277,13 +292,14 @@ int run(const Options& options)
   std::optional<io::SpillSummary> spill;
   if (scene.spill.enabled) spill = io::SpillSummary{scene.spill.below, 0, 0.0, 0, 0.0};
   const auto measureIfDue = [&](double t, double dt, bool force) {
-    if ((!instrument_csv && !bodies_csv && !sinks_csv) || t == last_measured) return;
+    if ((!instrument_csv && !bodies_csv && !sinks_csv && !emitters_csv) || t == last_measured) return;
     if (!force && (frame_interval <= 0.0 || t + 0.5 * dt < measure_slot * frame_interval)) return;
     last_measured = t;
     if (frame_interval > 0.0)
       measure_slot = std::max(measure_slot, static_cast<std::size_t>(std::floor((t + 0.5 * dt) / frame_interval)) + 1);
     if (bodies_csv) bodies_csv->write(t, io::bodyInfos(*sim));
     if (sinks_csv) sinks_csv->write(t, sim->sinkTotals());
+    if (emitters_csv) emitters_csv->write(t, sim->emitterTotals());
     if (!instrument_csv) return;
     const auto measure_start = Clock::now();
     const MeasurementReport m = instruments->evaluate(*sim);
@@ -337,6 +353,8 @@ int run(const Options& options)
       if (instrument_csv) instrument_csv->flush();
       if (bodies_csv) bodies_csv->flush();
       if (sinks_csv) sinks_csv->flush();
+      if (emitters_csv) emitters_csv->flush();
+      if (emitters_csv) emitters_csv->flush();
       last_flush = Clock::now();
     }
   }
@@ -346,6 +364,7 @@ int run(const Options& options)
   if (instrument_csv) instrument_csv->flush();
   if (bodies_csv) bodies_csv->flush();
   if (sinks_csv) sinks_csv->flush();
+  if (emitters_csv) emitters_csv->flush();
 
   io::RunSummary summary = io::summarize(*sim, stats);
   summary.threads = options.threads;

@@ -1,5 +1,6 @@
 // Free rigid bodies (rigid_dynamics.h): mass properties of every shape, free flight, resting on a
-// floor through contacts, floating at the draft Archimedes gives, and a heavy body that sinks.
+// floor through contacts (Bullet's, the default, and the particle contacts, contacts.model:
+// particles), floating at the draft Archimedes gives, and a heavy body that sinks.
 
 #include <gtest/gtest.h>
 
@@ -175,30 +176,63 @@ TEST(FreeBody, FliesOnAParabolaAndKeepsItsSpinWithoutFluid)
   EXPECT_TRUE(sim.boundaryVelocities()[info.first_particle].cast<double>().isApprox(expected, 1e-5));
 }
 
-TEST(FreeBody, ComesToRestOnTheFloorWithoutJitter)
+namespace
 {
-  // A dense box dropped 3 cm onto a dry tank floor: contacts stop it at the geometric floor (the
-  // two boundary layers one spacing apart) and hold it there with m g.
-  const double s = 0.02;
+struct Resting
+{
+  BodyInfo body;
+  double max_speed_late = 0.0;  // m/s after 0.5 s
+};
+
+/// A dense box dropped 3 cm onto a dry tank floor, for 1 s, with the given contact model.
+Resting dropOnFloor(double s, ContactModel model)
+{
   SceneConfig scene = tank(s, Vec3d(0.4, 0.4, 0.4), 0.0);
+  scene.contacts.model = model;
   scene.boundaries.push_back(freeBox("block", Vec3d(0.12, 0.12, 0.03), Vec3d(0.24, 0.22, 0.09), 2000.0));
   Simulation sim(scene);
-  double max_speed_late = 0.0;  // m/s after 0.5 s
+  Resting out;
   while (sim.time() < 1.0 - 1e-9)
   {
-    ASSERT_FALSE(sim.step().unstable);
-    if (sim.time() > 0.5) max_speed_late = std::max(max_speed_late, sim.body(1).com_velocity.norm());
+    EXPECT_FALSE(sim.step().unstable);
+    if (sim.time() > 0.5) out.max_speed_late = std::max(out.max_speed_late, sim.body(1).com_velocity.norm());
   }
-  const BodyInfo b = sim.body(1);
+  out.body = sim.body(1);
+  const BodyInfo& b = out.body;
   std::printf(
-      "block: centre of mass at z %.5f m (resting geometrically: 0.03 m), speed after 0.5 s <= %.2e m/s, "
+      "%s: block's centre of mass at z %.5f m (resting geometrically: 0.03 m), speed after 0.5 s <= %.2e m/s, "
       "contact force %.3f N (m g %.3f N), tilt %.2e rad\n",
-      b.center_of_mass.z(), max_speed_late, b.contact_force.z(), b.mass * kG,
+      toString(model), b.center_of_mass.z(), out.max_speed_late, b.contact_force.z(), b.mass * kG,
       2.0 * std::asin(std::hypot(b.pose.rotation.x(), b.pose.rotation.y())));
-  EXPECT_NEAR(b.center_of_mass.z(), 0.03, 0.3 * s);
-  EXPECT_LT(max_speed_late, 1e-3);
+  return out;
+}
+}  // namespace
+
+TEST(FreeBody, ComesToRestOnTheFloorWithoutJitter)
+{
+  // Bullet's contacts (the default): on the floor's geometry, within 0.1 mm.
+  const double s = 0.02;
+  const Resting r = dropOnFloor(s, ContactModel::Bullet);
+  const BodyInfo& b = r.body;
+  EXPECT_NEAR(b.center_of_mass.z(), 0.03, 0.005 * s);
+  EXPECT_LT(r.max_speed_late, 1e-3);  // 3.5e-4 m/s measured
   EXPECT_NEAR(b.contact_force.z(), b.mass * kG, 0.01 * b.mass * kG);
-  EXPECT_NEAR(b.center_of_mass.x(), 0.18, 1e-6);  // nothing pushes it sideways
+  // Nothing pushes it sideways, but Bullet's contact points, solved one after another in single
+  // precision, shift the landing box by 0.11 mm here (the particle contacts: below 1e-6 m).
+  EXPECT_NEAR(b.center_of_mass.x(), 0.18, 0.01 * s);
+}
+
+TEST(FreeBody, ComesToRestOnTheFloorWithParticleContacts)
+{
+  // contacts.model: particles: the two boundary layers one spacing apart, nesting by up to
+  // 0.29 s where the lattices are offset (here they are aligned).
+  const double s = 0.02;
+  const Resting r = dropOnFloor(s, ContactModel::Particles);
+  const BodyInfo& b = r.body;
+  EXPECT_NEAR(b.center_of_mass.z(), 0.03, 0.3 * s);
+  EXPECT_LT(r.max_speed_late, 1e-3);
+  EXPECT_NEAR(b.contact_force.z(), b.mass * kG, 0.01 * b.mass * kG);
+  EXPECT_NEAR(b.center_of_mass.x(), 0.18, 1e-6);
 }
 
 namespace
@@ -301,10 +335,10 @@ TEST(FreeBody, HeavySphereSinksToTheFloorAndKeepsTheWaterOut)
       "ball: centre at z %.4f m (on the floor: %.4f m), speed %.2e m/s, contact force %.3f N, "
       "weight less buoyancy %.3f N\n",
       b.center_of_mass.z(), radius, b.com_velocity.norm(), b.contact_force.z(), b.mass * kG * (1.0 - 1000.0 / 2000.0));
-  // Contacts hold boundary layers a spacing apart pair by pair; where a particle of one layer
-  // sits over the middle of four of the other's (a square lattice of spacing s), it is s / sqrt(2)
-  // above their plane: a curved body nests at most s (1 - 1/sqrt(2)) = 0.29 s below touching.
-  EXPECT_NEAR(b.center_of_mass.z(), radius, 0.3 * s);
+  // Bullet's contacts (the default) hold the sphere on the floor's geometry. (The particle
+  // contacts hold boundary layers a spacing apart pair by pair: a curved body nests up to
+  // s (1 - 1/sqrt(2)) = 0.29 s below touching.)
+  EXPECT_NEAR(b.center_of_mass.z(), radius, 0.01 * s);
   EXPECT_LT(b.com_velocity.norm(), 0.01);
   EXPECT_EQ(sim.numFluidParticles(), n0);
   // No water inside the ball.
@@ -315,12 +349,21 @@ TEST(FreeBody, HeavySphereSinksToTheFloorAndKeepsTheWaterOut)
   // resolution no water gets under the ball near the floor, and the water above presses it down.
 }
 
-TEST(FreeBody, StacksAndIsPushedByAScriptedPaddleWithoutPassingThrough)
+namespace
 {
-  // Dry tank: a box resting on another, and a third pushed along the floor by a scripted paddle
-  // at 0.3 m/s (kinematic: it pushes and is not pushed back).
-  const double s = 0.02;
+struct StackAndPush
+{
+  BodyInfo bottom, top, pushed;
+  double closest = 1e9;  // m, smallest distance between a particle of the paddle and one of the pushed box
+  double time = 0.0;     // s
+};
+
+/// Dry tank: a box resting on another, and a third pushed along the floor by a scripted paddle
+/// at 0.3 m/s (kinematic: it pushes and is not pushed back), for 1 s.
+StackAndPush stackAndPush(double s, ContactModel model)
+{
   SceneConfig scene = tank(s, Vec3d(0.6, 0.4, 0.4), 0.0);
+  scene.contacts.model = model;
   scene.fluid[0].box = {Vec3d(0.56, 0.36, 0.0), Vec3d(0.6, 0.4, 0.04)};  // the drop, in a far corner
   scene.boundaries.push_back(freeBox("bottom", Vec3d(0.04, 0.24, 0.0), Vec3d(0.16, 0.36, 0.06), 1000.0));
   scene.boundaries.push_back(freeBox("top", Vec3d(0.06, 0.26, 0.08), Vec3d(0.14, 0.34, 0.12), 1000.0));
@@ -333,31 +376,56 @@ TEST(FreeBody, StacksAndIsPushedByAScriptedPaddleWithoutPassingThrough)
   scene.boundaries.push_back(paddle);
   Simulation sim(scene);
   const std::size_t bottom = sim.bodyIndex("bottom"), top = sim.bodyIndex("top"), pushed = sim.bodyIndex("pushed");
-  double closest = 1e9;  // m, smallest distance between a particle of the paddle and one of the pushed box
+  StackAndPush out;
   while (sim.time() < 1.0 - 1e-9)
   {
-    ASSERT_FALSE(sim.step().unstable);
+    EXPECT_FALSE(sim.step().unstable);
     const BodyInfo p = sim.body(sim.bodyIndex("paddle")), q = sim.body(pushed);
     const auto& x = sim.boundaryPositions();
     for (std::size_t i = p.first_particle; i < p.first_particle + p.num_particles; i += 3)
       for (std::size_t j = q.first_particle; j < q.first_particle + q.num_particles; ++j)
-        closest = std::min(closest, double((x[i] - x[j]).norm()));
+        out.closest = std::min(out.closest, double((x[i] - x[j]).norm()));
   }
-  const BodyInfo b = sim.body(bottom), t = sim.body(top), q = sim.body(pushed);
+  out.bottom = sim.body(bottom);
+  out.top = sim.body(top);
+  out.pushed = sim.body(pushed);
+  out.time = sim.time();
   std::printf(
-      "stack: bottom at z %.4f (0.03), top at z %.4f (0.08), top's speed %.2e m/s; pushed box at x %.4f "
-      "(paddle front at %.4f), closest particles %.4f m (spacing %.3f m)\n",
-      b.center_of_mass.z(), t.center_of_mass.z(), t.com_velocity.norm(), q.center_of_mass.x(), 0.1 + 0.3 * sim.time(),
-      closest, s);
+      "%s: stack: bottom at z %.5f (0.03), top at z %.5f (0.08), top's speed %.2e m/s; pushed box at x %.5f "
+      "(paddle front at %.5f), z %.5f (0.03), closest particles %.4f m (spacing %.3f m)\n",
+      toString(model), out.bottom.center_of_mass.z(), out.top.center_of_mass.z(), out.top.com_velocity.norm(),
+      out.pushed.center_of_mass.x(), 0.1 + 0.3 * out.time, out.pushed.center_of_mass.z(), out.closest, s);
+  return out;
+}
+}  // namespace
+
+TEST(FreeBody, StacksAndIsPushedByAScriptedPaddleWithoutPassingThrough)
+{
+  // Bullet's contacts (the default): every height and the pushed box's place on the geometry.
+  const double s = 0.02;
+  const StackAndPush r = stackAndPush(s, ContactModel::Bullet);
+  EXPECT_NEAR(r.bottom.center_of_mass.z(), 0.03, 0.005 * s);
+  EXPECT_NEAR(r.top.center_of_mass.z(), 0.08, 0.005 * s);
+  EXPECT_LT(r.top.com_velocity.norm(), 1e-3);
+  // The pushed box's back face at the paddle's front, within 0.2 mm, and on the floor.
+  EXPECT_NEAR(r.pushed.center_of_mass.x() - 0.04, 0.1 + 0.3 * r.time, 0.01 * s);
+  EXPECT_NEAR(r.pushed.center_of_mass.z(), 0.03, 0.005 * s);
+  EXPECT_GT(r.closest, 0.5 * s);
+}
+
+TEST(FreeBody, StacksAndIsPushedWithParticleContacts)
+{
+  const double s = 0.02;
+  const StackAndPush r = stackAndPush(s, ContactModel::Particles);
   // The stack rests: each box on the one below within the nesting of aligned layers.
-  EXPECT_NEAR(b.center_of_mass.z(), 0.03, 0.1 * s);
-  EXPECT_NEAR(t.center_of_mass.z(), 0.08, 0.1 * s);
-  EXPECT_LT(t.com_velocity.norm(), 1e-3);
+  EXPECT_NEAR(r.bottom.center_of_mass.z(), 0.03, 0.1 * s);
+  EXPECT_NEAR(r.top.center_of_mass.z(), 0.08, 0.1 * s);
+  EXPECT_LT(r.top.com_velocity.norm(), 1e-3);
   // The pushed box is ahead of the paddle (its back face at the paddle's front) and still on the
   // floor; the two layers never came closer than half a spacing.
-  EXPECT_GT(q.center_of_mass.x() - 0.04, 0.1 + 0.3 * sim.time() - 0.3 * s);
+  EXPECT_GT(r.pushed.center_of_mass.x() - 0.04, 0.1 + 0.3 * r.time - 0.3 * s);
   // Sliding, its bottom layer rides over the floor's: offset by half a spacing along the motion,
   // a pair of particles one spacing apart is sqrt(3)/2 s high, 0.13 s below resting (0.137 s here).
-  EXPECT_NEAR(q.center_of_mass.z(), 0.03 - 0.07 * s, 0.08 * s);
-  EXPECT_GT(closest, 0.5 * s);
+  EXPECT_NEAR(r.pushed.center_of_mass.z(), 0.03 - 0.07 * s, 0.08 * s);
+  EXPECT_GT(r.closest, 0.5 * s);
 }

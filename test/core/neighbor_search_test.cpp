@@ -135,3 +135,60 @@ TEST(NeighborSearch, PointsOutsideTheGridAreIgnoredNotCrashing)
   EXPECT_EQ(grid.cellOf(pts[2]), UniformGrid::kOutside);
   EXPECT_EQ(grid.cellOf(pts[3]), UniformGrid::kOutside);
 }
+
+TEST(NeighborSearch, SeveralPointSetsEqualOneSearchOverTheirUnion)
+{
+  // The boundary is searched as two sets (bodies that never move, sorted once, and moving ones,
+  // sorted again when they move), each with its own grid and ids into the common numbering: a
+  // row must list exactly the union's neighbours, the first set's before the second's.
+  const std::vector<Vec3> all = randomPoints(2500, 5);
+  const std::vector<Vec3> queries = randomPoints(600, 6);
+  const Real r = Real(0.05);
+  struct Set
+  {
+    std::vector<Index> members;
+    std::vector<Vec3> gathered, sorted;
+    std::vector<Real> soa;
+    std::vector<Index> ids;
+    UniformGrid grid{Vec3d(-0.5, -0.5, -0.5), Vec3d(0.3, 0.3, 0.3), 0.05, 1};
+  };
+  Set sets[2];
+  for (std::size_t j = 0; j < all.size(); ++j) sets[j % 3 == 0 ? 1 : 0].members.push_back(Index(j));
+  std::vector<GridPoints> sources;
+  for (Set& s : sets)
+  {
+    for (Index j : s.members) s.gathered.push_back(all[j]);
+    s.grid.build(s.gathered);
+    for (std::size_t k = 0; k < s.grid.numInside(); ++k)
+    {
+      s.sorted.push_back(s.gathered[s.grid.order()[k]]);
+      s.ids.push_back(s.members[s.grid.order()[k]]);
+    }
+    toCoordinateArrays(s.sorted, s.soa);
+    GridPoints p;
+    p.grid = &s.grid;
+    p.sorted = s.sorted.data();
+    p.ids = s.ids.data();
+    p.count = s.sorted.size();
+    sources.push_back(p);
+  }
+  NeighborLists lists;
+  for (bool with_soa : {false, true})  // arrays made by the search, or brought by the set
+  {
+    for (std::size_t k = 0; k < 2; ++k) sources[k].soa = with_soa ? sets[k].soa.data() : nullptr;
+    buildNeighborLists(
+        queries, sources, r, false, [](Real d2) { return d2; }, NoPairValue{}, lists);
+    EXPECT_EQ(rowsOf(lists), bruteForce(queries, all, r, false));
+    for (std::size_t i = 0; i < lists.rows(); ++i)
+    {
+      bool second = false;  // once the second set's entries begin, no first-set entry follows
+      for (Index k = lists.offset[i]; k < lists.offset[i + 1]; ++k)
+      {
+        const bool in_second = lists.index[k] % 3 == 0;
+        EXPECT_FALSE(second && !in_second) << "row " << i;
+        second = second || in_second;
+        EXPECT_FLOAT_EQ(lists.grad_factor[k], (queries[i] - all[lists.index[k]]).squaredNorm());
+      }
+    }
+  }
+}

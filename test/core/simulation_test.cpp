@@ -2,11 +2,15 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
 
 #include "fluid_sim/core/bodies.h"
+#include "fluid_sim/core/fluid_particles.h"
+#include "fluid_sim/core/kernel.h"
+#include "fluid_sim/core/neighborhoods.h"
 
 #include "small_scene.h"
 
@@ -14,20 +18,9 @@ using namespace fluid_sim;
 
 namespace
 {
+using fluid_sim::test::errorKey;
 using fluid_sim::test::smallScene;
 
-std::string errorKey(const SceneConfig& s)
-{
-  try
-  {
-    Simulation sim(s);
-  }
-  catch (const ConfigError& e)
-  {
-    return e.key();
-  }
-  return "<no error>";
-}
 }  // namespace
 
 TEST(SceneValidation, BadValuesNameTheirKey)
@@ -644,4 +637,60 @@ TEST(Simulation, SinksDrainTheWaterThatEntersThemAndCountIt)
       ConfigError);
   s.sinks[1] = box;
   EXPECT_THROW(validate(s), ConfigError);  // duplicate name 'drain'
+}
+
+TEST(Neighborhoods, MovingBodyIsSortedAgainWithoutTheStaticWalls)
+{
+  // A tank that never moves and a scripted paddle: the paddle's motion writes only the moving
+  // bodies' positions (the walls are sorted once), and every step's fluid-boundary lists are
+  // still exactly the pairs within the support, walls and paddle.
+  SceneConfig s = smallScene();
+  s.domain = {Vec3d(-0.3, -0.3, -0.3), Vec3d(0.7, 0.7, 0.7)};
+  BoundaryConfig tank;
+  tank.name = "tank";
+  tank.type = ShapeType::Box;
+  tank.box = {Vec3d(-0.2, -0.2, -0.2), Vec3d(0.6, 0.6, 0.6)};
+  tank.inside = true;
+  s.boundaries.push_back(tank);
+  BoundaryConfig paddle;
+  paddle.name = "paddle";
+  paddle.type = ShapeType::Box;
+  paddle.box = {Vec3d(0.3, 0.0, 0.0), Vec3d(0.4, 0.1, 0.1)};
+  paddle.motion.angular_velocity = Vec3d(0, 0, M_PI);
+  paddle.motion.about = Vec3d(0.2, 0.2, 0.05);
+  s.boundaries.push_back(paddle);
+  BodySet bodies(s);
+  ASSERT_FALSE(bodies[0].moving);
+  ASSERT_TRUE(bodies[1].moving);
+  const std::uint64_t walls = bodies.staticVersion();
+  FluidParticles fluid;
+  for (int i = 0; i < 16; ++i)
+    for (int j = 0; j < 16; ++j)
+      for (int k = 0; k < 8; ++k)
+        fluid.add(Vec3(Real(-0.19 + 0.05 * i), Real(-0.19 + 0.05 * j), Real(-0.19 + 0.045 * k)), Vec3::Zero(),
+                  Real(1000));
+  const CubicKernel kernel(Real(2 * s.spacing));
+  Neighborhoods nb(s, kernel);
+  for (double t : {0.0, 0.1, 0.25, 0.6})
+  {
+    const std::uint64_t moving = bodies.movingVersion();
+    bodies.poseMoving(t);
+    EXPECT_EQ(bodies.staticVersion(), walls) << "t " << t;
+    EXPECT_GT(bodies.movingVersion(), moving) << "t " << t;
+    nb.sortFluid(fluid);
+    nb.build(fluid, bodies);
+    const Real h = kernel.support();
+    std::size_t paddle_pairs = 0;
+    for (std::size_t i = 0; i < fluid.size(); ++i)
+    {
+      std::vector<Index> expected, got(nb.fluid_boundary.index.begin() + nb.fluid_boundary.offset[i],
+                                       nb.fluid_boundary.index.begin() + nb.fluid_boundary.offset[i + 1]);
+      for (std::size_t b = 0; b < bodies.numParticles(); ++b)
+        if ((fluid.x[i] - bodies.x[b]).squaredNorm() < h * h) expected.push_back(Index(b));
+      std::sort(got.begin(), got.end());
+      ASSERT_EQ(got, expected) << "t " << t << " particle " << i;
+      for (Index b : got) paddle_pairs += bodies.body_of[b] == 1;
+    }
+    EXPECT_GT(paddle_pairs, 0u) << "the paddle must be in the water at t " << t;
+  }
 }

@@ -294,6 +294,39 @@ TEST(Runner, RegionOfAnUnknownBodyExitsTwoNamingIt)
       << r.err;
 }
 
+TEST(Runner, WritesEmittersCsvAndSummaryAndRefusesATfFrame)
+{
+  // A tap over the tiny tank: at 5 cm spacing a 1 cm opening is its centre point; at 0.5 m/s for
+  // 0.1 s the stream moves one spacing: one layer, one particle.
+  test::TempDir dir;
+  dir.write("tiny.yaml", std::string(kTinyScene) +
+                             "emitters:\n"
+                             "  - {name: tap, circle: {radius: 0.01}, pose: {xyz: [0.2, 0.2, 0.45]}, "
+                             "direction: [0, 0, -1], speed: 0.5, duration: 0.1}\n");
+  const RunResult r = run(dir, "tiny.yaml --out result");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::string csv = test::readFile((dir.path() / "result" / "emitters.csv").string());
+  EXPECT_EQ(csv.substr(0, csv.find('\n')), "t,emitter,particles,volume_m3,mass_kg,blocked");
+  EXPECT_NE(csv.find(",tap,1,"), std::string::npos) << csv;
+  const nlohmann::json j = readJson((dir.path() / "result" / "summary.json").string());
+  EXPECT_EQ(j["emitters"]["tap"]["particles"], 1);
+  EXPECT_NEAR(j["emitters"]["tap"]["volume_m3"].get<double>(), 0.05 * 0.05 * 0.05, 1e-12);
+  EXPECT_NEAR(j["emitters"]["tap"]["flow_rate_m3_s"].get<double>(), 0.05 * 0.05 * 0.5, 1e-12);
+  EXPECT_NE(r.out.find("emitter  tap: released 1 particles"), std::string::npos) << r.out;
+  // A tiny scene without emitters writes no emitters.csv.
+  test::TempDir plain;
+  plain.write("tiny.yaml", kTinyScene);
+  ASSERT_EQ(run(plain, "tiny.yaml --out result").exit_code, 0);
+  EXPECT_FALSE(fs::exists(plain.path() / "result" / "emitters.csv"));
+  // A nozzle fixed in a tf frame is the node's.
+  test::TempDir tf;
+  tf.write("tiny.yaml",
+           std::string(kTinyScene) + "emitters: [{name: hose, circle: {radius: 0.01}, speed: 1, frame: gripper}]\n");
+  const RunResult refused = run(tf, "tiny.yaml --out result");
+  EXPECT_EQ(refused.exit_code, 2);
+  EXPECT_NE(refused.err.find("emitters[0].frame: 'gripper' is a tf frame"), std::string::npos) << refused.err;
+}
+
 // The tiny tank with a free box of density 500 kg/m^3 above the water (format only: the dynamics
 // are the core's and tested there).
 const char* const kFreeBox = R"yaml(

@@ -621,6 +621,14 @@ TEST(SceneLoader, DynamicKeysAndContactDefaults)
   EXPECT_FALSE(plain.boundaries[1].dynamic.enabled);
   EXPECT_DOUBLE_EQ(plain.contacts.friction, ContactConfig().friction);
   EXPECT_DOUBLE_EQ(parseScene(kBase + "contacts: {friction: 0}\n", "scene.yaml").contacts.friction, 0.0);
+  // Bullet's contacts by default; the particle contacts by name.
+  EXPECT_EQ(plain.contacts.model, ContactModel::Bullet);
+  EXPECT_EQ(parseScene(kBase + "contacts: {model: particles}\n", "scene.yaml").contacts.model, ContactModel::Particles);
+  EXPECT_EQ(parseScene(kBase + "contacts: {model: bullet, friction: 0.3}\n", "scene.yaml").contacts.model,
+            ContactModel::Bullet);
+  EXPECT_DOUBLE_EQ(plain.contacts.rolling_resistance, 0.01);
+  EXPECT_DOUBLE_EQ(parseScene(kBase + "contacts: {rolling_resistance: 0}\n", "scene.yaml").contacts.rolling_resistance,
+                   0.0);
 }
 
 TEST(SceneLoader, BadDynamicAndContactKeysAreNamed)
@@ -645,6 +653,9 @@ TEST(SceneLoader, BadDynamicAndContactKeysAreNamed)
   expectError(kBase + "contacts: {frction: 0.2}\n", "contacts.frction", "did you mean 'friction'");
   expectError(kBase + "contacts: {friction: slippery}\n", "contacts.friction", "expected a number");
   expectError(kBase + "contacts: {friction: -1}\n", "contacts.friction", "must be finite and >= 0");
+  expectError(kBase + "contacts: {model: ode}\n", "contacts.model", "bullet");
+  expectError(kBase + "contacts: {rolling_resistance: -0.1}\n", "contacts.rolling_resistance",
+              "must be finite and >= 0, got -0.1");
 }
 
 namespace
@@ -721,6 +732,51 @@ TEST(SceneLoader, SinksAreReadAsRegionsAndABodySinkIsRefused)
   expectError(kBase + "sinks:\n  - {name: cup_drain, body: cup}\n", "sinks[0].body", "a sink is a box or a sphere");
   expectError(kBase + "sinks:\n  - {name: d, box: {min: [0, 0, 0], max: [1, 1, 1]}, radius: 2}\n", "sinks[0].radius",
               "unknown key");
+}
+
+TEST(SceneLoader, EmittersAreReadWithTheirNozzleDirectionAndBudget)
+{
+  const SceneConfig s = parseScene(
+      kBase +
+          "emitters:\n"
+          "  - {name: tap, circle: {radius: 0.02}, pose: {xyz: [0.1, 0.2, 0.5]}, direction: [0, 0, -1],\n"
+          "     flow_rate: 2.0e-4, start: 0.5, duration: 2}\n"
+          "  - {name: hose, rectangle: {size: [0.04, 0.02]}, pose: {xyz: [0, 0, 1], rpy: [0, 1.5707963, 0]},\n"
+          "     speed: 1.5, body: arm, max_particles: 5000}\n",
+      "scene.yaml");
+  ASSERT_EQ(s.emitters.size(), 2u);
+  const EmitterConfig& tap = s.emitters[0];
+  EXPECT_EQ(tap.name, "tap");
+  EXPECT_EQ(tap.shape, NozzleShape::Circle);
+  EXPECT_DOUBLE_EQ(tap.radius, 0.02);
+  EXPECT_DOUBLE_EQ(tap.pose.translation.z(), 0.5);
+  EXPECT_LT((tap.pose.rotation * Vec3d::UnitZ() - Vec3d(0, 0, -1)).norm(), 1e-12);  // +z along direction
+  EXPECT_DOUBLE_EQ(tap.flow_rate, 2.0e-4);
+  EXPECT_DOUBLE_EQ(tap.speed, 0.0);
+  EXPECT_DOUBLE_EQ(tap.start, 0.5);
+  EXPECT_DOUBLE_EQ(tap.duration, 2.0);
+  const EmitterConfig& hose = s.emitters[1];
+  EXPECT_EQ(hose.shape, NozzleShape::Rectangle);
+  EXPECT_DOUBLE_EQ(hose.size.x(), 0.04);
+  EXPECT_DOUBLE_EQ(hose.speed, 1.5);
+  EXPECT_EQ(hose.body, "arm");
+  EXPECT_EQ(hose.max_particles, 5000u);
+  EXPECT_TRUE(std::isinf(hose.duration));                                          // no end
+  EXPECT_LT((hose.pose.rotation * Vec3d::UnitZ() - Vec3d(1, 0, 0)).norm(), 1e-6);  // pitched onto +x
+  expectError(kBase + "emitters:\n  - {name: t, speed: 1}\n", "emitters[0]", "needs a nozzle shape");
+  expectError(kBase + "emitters:\n  - {name: t, circle: {radius: 0.01}, rectangle: {size: [1, 1]}, speed: 1}\n",
+              "emitters[0]", "two nozzle shapes");
+  expectError(kBase +
+                  "emitters:\n  - {name: t, circle: {radius: 0.01}, pose: {rpy: [0, 0, 1]}, direction: [1, 0, 0], "
+                  "speed: 1}\n",
+              "emitters[0].direction", "either pose.rpy or direction");
+  expectError(kBase + "emitters:\n  - {name: t, circle: {radius: 0.01}, direction: [0, 0, 0], speed: 1}\n",
+              "emitters[0].direction", "non-zero");
+  expectError(kBase + "emitters:\n  - {name: t, circle: {radius: 0.01}, speed: 1, flow_rate: 1}\n", "emitters[0]",
+              "both speed and flow_rate");
+  expectError(kBase + "emitters:\n  - {name: t, circle: {radius: 0.01}, sped: 1}\n", "emitters[0].sped", "unknown key");
+  expectError(kBase + "emitters:\n  - {name: t, circle: {radius: 0.01}, speed: 1, max_particles: 0.5}\n",
+              "emitters[0].max_particles", "whole number");
 }
 
 }  // namespace fluid_sim

@@ -423,6 +423,54 @@ boundaries:
   for (const Vec3& x : sim.boundaryPositions()) ASSERT_TRUE(x.allFinite());
 }
 
+TEST(LinkPoses, AnEmitterFixedInATfFrameFollowsItAndReleasesThere)
+{
+  // emitters[i].frame: the node looks the frame up before every step and poses the nozzle at
+  // frame pose * the scene's pose; the runner refuses such a scene (it has no tf).
+  ros::Time::init();
+  const SceneConfig scene = io::parseScene(R"yaml(
+spacing: 0.02
+domain: {min: [-1, -1, -1], max: [1, 1, 1]}
+gravity: [0, 0, 0]
+time_step: {fixed: 0.002}
+fluid: []
+emitters:
+  - {name: hose, circle: {radius: 0.01}, pose: {xyz: [0, 0, -0.05]}, direction: [0, 0, -1], speed: 1.0,
+     frame: gripper}
+)yaml",
+                                           "scene.yaml");
+  ASSERT_EQ(scene.emitters.size(), 1u);
+  EXPECT_TRUE(scene.emitters[0].externally_posed);
+  Simulation sim(scene);
+  NodeOptions opt;
+  LinkPoses links(opt);
+  geometry_msgs::TransformStamped t;
+  t.header.frame_id = "world";
+  t.header.stamp = ros::Time(1.0);
+  t.child_frame_id = "gripper";
+  t.transform.translation.x = 0.3;
+  t.transform.translation.y = -0.2;
+  t.transform.translation.z = 0.5;
+  t.transform.rotation.w = 1.0;
+  ASSERT_TRUE(links.buffer().setTransform(t, "test"));
+  links.attachEmitters(sim, {});  // not among the waited-for poses: looked up
+  const Pose nozzle = sim.emitterPose(0);
+  EXPECT_LT((nozzle.translation - Vec3d(0.3, -0.2, 0.45)).norm(), 1e-9);
+  // The gripper moves; the next step's nozzle is where tf says, and releases there.
+  t.header.stamp = ros::Time(2.0);
+  t.transform.translation.x = -0.4;
+  links.buffer().setTransform(t, "test");
+  links.poseBodies(sim, ros::Time(0), false);
+  for (int k = 0; k < 20; ++k) sim.step();  // 0.04 s at 1 m/s: two layers
+  ASSERT_GT(sim.numFluidParticles(), 0u);
+  for (const Vec3& x : sim.positions())
+  {
+    EXPECT_NEAR(x.x(), -0.4, 1e-5);
+    EXPECT_NEAR(x.y(), -0.2, 1e-5);
+    EXPECT_LT(x.z(), 0.45 + 1e-5);
+  }
+}
+
 TEST(NodeParameters, SceneFileYamlBecomesParametersAsRosparamMakesThem)
 {
   XmlRpc::XmlRpcValue v = yamlToParameters(R"yaml(

@@ -220,7 +220,7 @@ void BodySet::pose(Body& body, double time, bool force_write)
     v[b] = (body.v_origin + body.omega.cross(r)).cast<Real>();
     a[b] = (body.a_origin + body.alpha.cross(r) + body.omega.cross(body.omega.cross(r))).cast<Real>();
   });
-  ++version_;
+  ++(body.moving ? moving_version_ : static_version_);
 }
 
 }  // namespace fluid_sim

@@ -46,9 +46,9 @@ void ExtrapolatedBoundaryPressure::buildLists()
   }
   const CubicKernel fit_kernel(fit_radius_);
   auto weight = [&fit_kernel](Real d2) -> Real { return fit_kernel.W(std::sqrt(d2)); };
-  static const std::vector<Index> kIdentity;  // the sorted fluid is in grid order
-  buildNeighborLists(queries_, in_.neighbors.fluidGrid(), fluid.x, kIdentity, fit_radius_, false, NoPairValue{}, weight,
-                     fit_lists_);
+  // The sorted fluid with the coordinate arrays the step's search already made.
+  buildNeighborLists(queries_, std::vector<GridPoints>{in_.neighbors.fluidPoints(fluid)}, fit_radius_, false,
+                     NoPairValue{}, weight, fit_lists_);
   coefficients_.resize(fit_lists_.pairs());
 }
 

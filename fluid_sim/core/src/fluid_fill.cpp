@@ -153,7 +153,8 @@ FillResult fillFluid(const SceneConfig& scene, const BodySet& bodies, FluidParti
           result.kind.push_back(face ? FillKind::LatticeFace : FillKind::LatticeInterior);
         }
   }
-  if (fluid.size() == 0)
+  // A scene whose water all comes from emitters starts dry.
+  if (fluid.size() == 0 && !scene.fluid.empty())
     throw ConfigError("fluid", "no fluid particle remains after removing those inside solids or outside containers");
   return result;
 }

@@ -60,4 +60,18 @@ void UniformGrid::build(const std::vector<Vec3>& points)
   }
 }
 
+void toCoordinateArrays(const std::vector<Vec3>& points, std::vector<Real>& soa)
+{
+  const std::size_t m = points.size();
+  soa.resize(3 * m);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, m, 4096), [&](const tbb::blocked_range<std::size_t>& r) {
+    for (std::size_t k = r.begin(); k != r.end(); ++k)
+    {
+      soa[k] = points[k].x();
+      soa[m + k] = points[k].y();
+      soa[2 * m + k] = points[k].z();
+    }
+  });
+}
+
 }  // namespace fluid_sim

@@ -312,7 +312,7 @@ void ContactSolver::apply(BodySet& bodies, double dt)
 
 // ------------------------------------------------------------------------------ free bodies
 
-void BodySet::stepFree(double dt, const Vec3d& gravity, ContactSolver& contacts)
+void BodySet::stepFree(double dt, const Vec3d& gravity, ContactResolver& contacts)
 {
   if (!has_free_) return;
   std::vector<Vec3d> v_old, w_old;
@@ -331,7 +331,8 @@ void BodySet::stepFree(double dt, const Vec3d& gravity, ContactSolver& contacts)
     const Mat3d inertia = R * body.inertia_local * R.transpose();
     body.omega += dt * inertia.inverse() * (torque_com - body.omega.cross(inertia * body.omega));
   }
-  // Eq. A26: contacts change the new velocities before the positions move with them.
+  // Eq. A26 (particles) or A26b (Bullet): contacts change the new velocities before the positions
+  // move with them.
   contacts.apply(*this, dt);
   for (std::size_t k = 0; k < bodies_.size(); ++k)
   {

@@ -51,6 +51,11 @@ const char* toString(MlsSingularMode mode)
   return "?";
 }
 
+const char* toString(ContactModel model)
+{
+  return model == ContactModel::Bullet ? "bullet" : "particles";
+}
+
 const char* toString(ViscosityModel model)
 {
   switch (model)
@@ -193,8 +198,34 @@ void validateInstruments(const SceneConfig& s)
     requireInstrumentName(s.probes, i, key);
     requireFinite(s.probes[i].position, key + ".position");
   }
+  for (std::size_t i = 0; i < s.emitters.size(); ++i)
+  {
+    const EmitterConfig& e = s.emitters[i];
+    const std::string key = "emitters[" + std::to_string(i) + "]";
+    requireInstrumentName(s.emitters, i, key);
+    if (e.shape == NozzleShape::Circle)
+      requirePositive(e.radius, key + ".circle.radius");
+    else if (!(e.size.allFinite() && e.size.x() > 0.0 && e.size.y() > 0.0))
+      throw ConfigError(key + ".rectangle.size", "must be two finite lengths > 0 (m)");
+    requireFinite(e.pose.translation, key + ".pose.xyz");
+    if (!e.pose.rotation.coeffs().allFinite()) throw ConfigError(key + ".pose.rpy", "must be finite");
+    const bool has_speed = e.speed != 0.0, has_rate = e.flow_rate != 0.0;
+    if (has_speed == has_rate)
+      throw ConfigError(key, has_speed ? "has both speed and flow_rate; give one (the other follows from the nozzle)"
+                                       : "needs a speed (m/s) or a flow_rate (m^3/s)");
+    if (has_speed) requirePositive(e.speed, key + ".speed");
+    if (has_rate) requirePositive(e.flow_rate, key + ".flow_rate");
+    requireNonNegative(e.start, key + ".start");
+    if (!(e.duration > 0.0)) throw ConfigError(key + ".duration", "must be > 0 (s), got " + str(e.duration));
+    if (!e.frame.empty() && !e.body.empty()) throw ConfigError(key + ".frame", "give either body or frame, not both");
+  }
   if (!std::isfinite(s.contacts.friction) || s.contacts.friction < 0.0)
     throw ConfigError("contacts.friction", "must be finite and >= 0, got " + str(s.contacts.friction));
+  if (!std::isfinite(s.contacts.rolling_resistance) || s.contacts.rolling_resistance < 0.0)
+    throw ConfigError("contacts.rolling_resistance",
+                      "must be finite and >= 0, got " + str(s.contacts.rolling_resistance));
+  if (s.contacts.model != ContactModel::Bullet && s.contacts.model != ContactModel::Particles)
+    throw ConfigError("contacts.model", "must be bullet or particles");
   if (s.spill.enabled && !std::isfinite(s.spill.below))
     throw ConfigError("spill.below", "must be finite, got " + str(s.spill.below));
 }
@@ -333,7 +364,8 @@ void validate(const SceneConfig& s)
   if (s.max_fluid_particles < 1) throw ConfigError("max_fluid_particles", "must be >= 1");
   validateInstruments(s);
 
-  if (s.fluid.empty()) throw ConfigError("fluid", "the scene has no fluid block");
+  if (s.fluid.empty() && s.emitters.empty())
+    throw ConfigError("fluid", "the scene has no fluid block (and no emitter that would bring water)");
   for (std::size_t i = 0; i < s.fluid.size(); ++i)
   {
     const std::string key = "fluid[" + std::to_string(i) + "]";

@@ -10,7 +10,9 @@
 #include <string>
 
 #include "fluid_sim/core/bodies.h"
+#include "fluid_sim/core/bullet_contacts.h"
 #include "fluid_sim/core/dfsph_solver.h"
+#include "fluid_sim/core/emitters.h"
 #include "fluid_sim/core/fill_relaxation.h"
 #include "fluid_sim/core/fluid_constants.h"
 #include "fluid_sim/core/fluid_fill.h"
@@ -43,9 +45,22 @@ struct Simulation::Impl
       , forces(scene.viscosity, constants)
       , solver(makePressureSolver({scene, constants, fluid, bodies, neighbors}, fluid))
       , dt_next(computeTimeStep(scene.time_step, fluid, constants.gravity, scene.spacing))
-      , contacts(scene.spacing, scene.contacts)
+      , emitters(scene, bodies)
   {
     for (const RegionConfig& sink : scene.sinks) sink_totals.push_back({sink.name, 0, 0.0, 0.0});
+    // Without free bodies no contact model (no Bullet world) is built.
+    if (bodies.hasFree())
+    {
+      if (scene.contacts.model == ContactModel::Bullet)
+        contacts = std::make_unique<BulletContacts>(bodies, scene.spacing, scene.contacts);
+      else
+        contacts = std::make_unique<ContactSolver>(scene.spacing, scene.contacts);
+    }
+    // The emitters' water is stored from the start where its amount is known: no reallocation
+    // while they run (fields and their sort scratch). Up to a million particles (56 MB of fields
+    // and sort scratch) are reserved; beyond that the storage grows geometrically (a
+    // reallocation per doubling, not per emission).
+    if (!emitters.empty()) fluid.reserve(fluid.size() + std::min<std::size_t>(emitters.expectedParticles(), 1000000));
     fill_report.trimmed = fill.trimmed;
     if (scene.fill.relax)
     {
@@ -114,7 +129,7 @@ struct Simulation::Impl
                          [&](std::size_t i, Index b) { return solver->wallPressure(i, b); });
     // Free bodies move under gravity, the fluid's wrench of this step and contacts, to their
     // poses at t + dt (Eqs. A24-A26; rigid_dynamics.cpp). Nothing for a scene without them.
-    if (bodies.hasFree()) bodies.stepFree(dt, scene.gravity, contacts);
+    if (contacts) bodies.stepFree(dt, scene.gravity, *contacts);
     t += dt;
     rep.time = t;
     rep.dt = dt;
@@ -127,6 +142,9 @@ struct Simulation::Impl
       rep.removed = removeOutsideDomain(fluid, scene.domain);
       removed_total += rep.removed;
       if (!scene.sinks.empty()) rep.drained = drain();
+      // Emitters release the layers whose time came in this step, at the nozzles' poses now
+      // (emitters.cpp); they join the next step's neighbourhoods.
+      if (!emitters.empty()) rep.emitted = emitters.emit(t - dt, dt, fluid, bodies);
     }
     rep.fluid_particles = fluid.size();
     solver->report(rep);
@@ -182,8 +200,10 @@ struct Simulation::Impl
   double t = 0.0;                          // s, simulated time
   double dt_next;                          // s, the time step of the next step()
   std::size_t removed_total = 0;           // particles that left the domain since t = 0
-  ContactSolver contacts;                  // free bodies' contacts (unused without them)
-  std::vector<SinkTotal> sink_totals;      // per scene sink, since t = 0
+  // Free bodies' contacts (contacts.model), built only for a scene with free bodies.
+  std::unique_ptr<ContactResolver> contacts;
+  std::vector<SinkTotal> sink_totals;  // per scene sink, since t = 0
+  Emitters emitters;                   // the scene's nozzles (none: nothing per step)
 };
 
 Simulation::Simulation(const SceneConfig& scene) : impl_(std::make_unique<Impl>(scene)) {}
@@ -354,6 +374,24 @@ std::size_t Simulation::removedTotal() const
 const std::vector<SinkTotal>& Simulation::sinkTotals() const
 {
   return impl_->sink_totals;
+}
+const std::vector<EmitterTotal>& Simulation::emitterTotals() const
+{
+  return impl_->emitters.totals();
+}
+void Simulation::setEmitterPose(std::size_t index, const Pose& pose)
+{
+  if (index >= impl_->scene.emitters.size())
+    throw ConfigError("emitters", "no emitter with index " + std::to_string(index));
+  const EmitterConfig& e = impl_->scene.emitters[index];
+  if (!e.externally_posed) throw ConfigError(e.name, "emitter is not posed from outside");
+  if (!pose.translation.allFinite() || !pose.rotation.coeffs().allFinite())
+    throw std::invalid_argument("setEmitterPose: emitter '" + e.name + "': the pose is not finite");
+  impl_->emitters.setPose(index, pose);
+}
+Pose Simulation::emitterPose(std::size_t index) const
+{
+  return impl_->emitters.worldPose(index, impl_->bodies);
 }
 double Simulation::particleMass() const
 {

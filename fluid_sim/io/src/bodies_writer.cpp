@@ -6,17 +6,25 @@ namespace fluid_sim
 {
 namespace io
 {
+CsvFile::CsvFile(const std::string& path, const char* header) : path_(path), out_(path, std::ios::trunc)
+{
+  if (!out_) throw std::runtime_error("cannot create " + path_);
+  out_.precision(9);  // significant digits, as stats.csv and the instrument files
+  out_ << header << '\n';
+}
+
+void CsvFile::flush()
+{
+  out_.flush();
+  if (!out_) throw std::runtime_error("cannot write " + path_);
+}
+
 const char* BodiesCsvWriter::header()
 {
   return "t,body,x,y,z,qx,qy,qz,qw,vx,vy,vz,wx,wy,wz,fx,fy,fz,tx,ty,tz";
 }
 
-BodiesCsvWriter::BodiesCsvWriter(const std::string& path) : path_(path), out_(path, std::ios::trunc)
-{
-  if (!out_) throw std::runtime_error("cannot create " + path_);
-  out_.precision(9);  // significant digits, as stats.csv and the instrument files
-  out_ << header() << '\n';
-}
+BodiesCsvWriter::BodiesCsvWriter(const std::string& path) : CsvFile(path, header()) {}
 
 void BodiesCsvWriter::write(double t, const std::vector<BodyInfo>& bodies)
 {
@@ -36,23 +44,12 @@ void BodiesCsvWriter::write(double t, const std::vector<BodyInfo>& bodies)
   }
 }
 
-void BodiesCsvWriter::flush()
-{
-  out_.flush();
-  if (!out_) throw std::runtime_error("cannot write " + path_);
-}
-
 const char* SinksCsvWriter::header()
 {
   return "t,sink,particles,volume_m3,mass_kg";
 }
 
-SinksCsvWriter::SinksCsvWriter(const std::string& path) : path_(path), out_(path, std::ios::trunc)
-{
-  if (!out_) throw std::runtime_error("cannot create " + path_);
-  out_.precision(9);
-  out_ << header() << '\n';
-}
+SinksCsvWriter::SinksCsvWriter(const std::string& path) : CsvFile(path, header()) {}
 
 void SinksCsvWriter::write(double t, const std::vector<SinkTotal>& sinks)
 {
@@ -60,10 +57,17 @@ void SinksCsvWriter::write(double t, const std::vector<SinkTotal>& sinks)
     out_ << t << ',' << s.name << ',' << s.particles << ',' << s.volume << ',' << s.mass << '\n';
 }
 
-void SinksCsvWriter::flush()
+const char* EmittersCsvWriter::header()
 {
-  out_.flush();
-  if (!out_) throw std::runtime_error("cannot write " + path_);
+  return "t,emitter,particles,volume_m3,mass_kg,blocked";
+}
+
+EmittersCsvWriter::EmittersCsvWriter(const std::string& path) : CsvFile(path, header()) {}
+
+void EmittersCsvWriter::write(double t, const std::vector<EmitterTotal>& emitters)
+{
+  for (const EmitterTotal& e : emitters)
+    out_ << t << ',' << e.name << ',' << e.particles << ',' << e.volume << ',' << e.mass << ',' << e.blocked << '\n';
 }
 
 }  // namespace io

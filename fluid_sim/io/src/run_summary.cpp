@@ -153,6 +153,20 @@ std::string toJson(const RunSummary& s)
       sinks[k.name] = {{"particles", k.particles}, {"volume_m3", k.volume}, {"mass_kg", k.mass}};
     j["sinks"] = sinks;
   }
+  if (!s.emitters.empty())
+  {
+    nlohmann::ordered_json emitters = nlohmann::ordered_json::object();
+    for (const EmitterTotal& e : s.emitters)
+      emitters[e.name] = {{"particles", e.particles},
+                          {"volume_m3", e.volume},
+                          {"mass_kg", e.mass},
+                          {"blocked", e.blocked},
+                          {"flow_rate_m3_s", e.flow_rate},
+                          {"speed_m_s", e.speed},
+                          {"nozzle_points", e.points},
+                          {"budget_reached", e.budget_reached}};
+    j["emitters"] = emitters;
+  }
   return j.dump(2) + "\n";
 }
 

@@ -418,12 +418,14 @@ DynamicConfig readDynamic(const Entry& e)
   return d;
 }
 
-/// `contacts: {friction}`.
+/// `contacts: {friction, model, rolling_resistance}`.
 ContactConfig readContacts(const Entry& e)
 {
   MapReader r(e);
   ContactConfig c;
   r.read("friction", c.friction);
+  r.read("rolling_resistance", c.rolling_resistance);
+  if (auto m = r.get("model")) c.model = readNamed(*m, {ContactModel::Bullet, ContactModel::Particles});
   r.finish();
   return c;
 }
@@ -499,6 +501,72 @@ ProbeConfig readProbe(const Entry& e)
   readInto(name ? *name : r.require("name"), probe.name);
   probe.position = readVec3(position ? *position : r.require("position"));
   return probe;
+}
+
+/// A particle budget (max_fluid_particles, max_boundary_particles, an emitter's max_particles): a
+/// whole number in [1, 1e12] (YAML may write it as 2.0e6).
+std::size_t readParticleCount(const Entry& e)
+{
+  const double n = readScalar<double>(e);
+  checkValue(e, n >= 1.0 && n <= 1.0e12 && n == std::floor(n), "must be a whole number >= 1");
+  return static_cast<std::size_t>(n);
+}
+
+/// One entry of `emitters`: {name, circle: {radius} | rectangle: {size: [w, h]}, pose: {xyz,
+/// rpy} (or pose: {xyz} with direction: [x, y, z]), speed | flow_rate, start, duration, body,
+/// max_particles}.
+EmitterConfig readEmitter(const Entry& e)
+{
+  MapReader r(e);
+  const std::optional<Entry> name = r.get("name"), circle = r.get("circle"), rectangle = r.get("rectangle"),
+                             pose = r.get("pose"), direction = r.get("direction"), body = r.get("body"),
+                             max_particles = r.get("max_particles"), frame = r.get("frame");
+  EmitterConfig em;
+  r.read("speed", em.speed);
+  r.read("flow_rate", em.flow_rate);
+  r.read("start", em.start);
+  r.read("duration", em.duration);
+  r.finish();
+  readInto(name ? *name : r.require("name"), em.name);
+  if (bool(circle) == bool(rectangle))
+    throw ConfigError(e.key, std::string(circle ? "has two nozzle shapes, 'circle' and 'rectangle'; give one"
+                                                : "needs a nozzle shape: circle {radius} or rectangle {size: [w, h]}") +
+                                 lineOf(e.node));
+  if (circle)
+  {
+    MapReader c(*circle);
+    em.shape = NozzleShape::Circle;
+    readInto(c.require("radius"), em.radius);
+    c.finish();
+  }
+  else
+  {
+    MapReader c(*rectangle);
+    em.shape = NozzleShape::Rectangle;
+    const Entry size = c.require("size");
+    c.finish();
+    const std::array<double, 2> wh = readArray<double, 2>(size, "a list [width, height] (m)");
+    em.size = Eigen::Vector2d(wh[0], wh[1]);
+  }
+  if (pose) em.pose = readPose(*pose);
+  if (direction)
+  {
+    // The nozzle's +z axis along the direction (the shortest rotation from +z); it replaces rpy.
+    if (pose && MapReader(*pose).has("rpy"))
+      throw ConfigError(direction->key, "give either pose.rpy or direction, not both" + lineOf(direction->node));
+    const Vec3d d = readVec3(*direction);
+    checkValue(*direction, d.allFinite() && d.norm() > 0.0, "must be a finite, non-zero vector");
+    em.pose.rotation = Eigen::Quaterniond::FromTwoVectors(Vec3d::UnitZ(), d.normalized());
+  }
+  if (body) readInto(*body, em.body);
+  if (frame)
+  {
+    readInto(*frame, em.frame);
+    checkValue(*frame, !em.frame.empty(), "must name a tf frame");
+    em.externally_posed = true;
+  }
+  if (max_particles) em.max_particles = readParticleCount(*max_particles);
+  return em;
 }
 
 /// `spill: {below: Z}`.
@@ -749,18 +817,8 @@ SceneConfig readScene(const YAML::Node& root, LoadContext& ctx)
   MapReader r({root, ""});
   SceneConfig s;
   r.read("spacing", s.spacing);
-  if (auto e = r.get("max_boundary_particles"))
-  {
-    const double n = readScalar<double>(*e);
-    checkValue(*e, n >= 1.0 && n <= 1.0e12 && n == std::floor(n), "must be a whole number >= 1");
-    s.max_boundary_particles = static_cast<std::size_t>(n);
-  }
-  if (auto e = r.get("max_fluid_particles"))
-  {
-    const double n = readScalar<double>(*e);
-    checkValue(*e, n >= 1.0 && n <= 1.0e12 && n == std::floor(n), "must be a whole number >= 1");
-    s.max_fluid_particles = static_cast<std::size_t>(n);
-  }
+  if (auto e = r.get("max_boundary_particles")) s.max_boundary_particles = readParticleCount(*e);
+  if (auto e = r.get("max_fluid_particles")) s.max_fluid_particles = readParticleCount(*e);
   ctx.spacing = s.spacing;
   ctx.max_boundary_particles = s.max_boundary_particles;
   ctx.warnings = &s.warnings;
@@ -786,6 +844,7 @@ SceneConfig readScene(const YAML::Node& root, LoadContext& ctx)
   if (auto e = r.get("contacts")) s.contacts = readContacts(*e);
   // A sink is read as a region (name, box with pose, or sphere); validate() refuses a body one.
   if (auto e = r.get("sinks")) forEachItem(*e, [&](const Entry& item) { s.sinks.push_back(readRegion(item)); });
+  if (auto e = r.get("emitters")) forEachItem(*e, [&](const Entry& item) { s.emitters.push_back(readEmitter(item)); });
   r.finish();
   return s;
 }

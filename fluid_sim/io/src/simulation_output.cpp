@@ -63,6 +63,7 @@ RunSummary summarize(const Simulation& sim, const RunStatistics& stats)
       s.free_bodies.push_back({b.name, b.center_of_mass, b.pose.rotation, b.com_velocity, b.angular_velocity, b.mass});
   }
   s.sinks = sim.sinkTotals();
+  s.emitters = sim.emitterTotals();
   return s;
 }
 

@@ -77,7 +77,7 @@ struct FluidSimNode::Impl
     loop.setScene(std::move(scene), std::move(link_bodies));
     links.listen(nh);
     std::map<std::string, Pose> poses;
-    if (!links.waitFor(loop.linkNames(), loop.stopping(), poses)) return false;
+    if (!links.waitFor(loop.tfFrames(), loop.stopping(), poses)) return false;
     loop.build(poses);
     const Simulation& sim = loop.simulation();
     ROS_INFO(

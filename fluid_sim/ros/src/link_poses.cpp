@@ -104,6 +104,45 @@ void LinkPoses::attach(const Simulation& sim, const std::vector<std::string>& li
   }
 }
 
+void LinkPoses::poseEmitter(Simulation& sim, EmitterFrame& ef, const Pose& frame_pose)
+{
+  // Nozzle -> fixed frame = (tf frame -> fixed frame) * (nozzle -> tf frame).
+  Pose world;
+  world.rotation = frame_pose.rotation * ef.offset.rotation;
+  world.translation = frame_pose.apply(ef.offset.translation);
+  sim.setEmitterPose(ef.index, world);
+  ef.last_pose = frame_pose;
+}
+
+void LinkPoses::attachEmitters(Simulation& sim, const std::map<std::string, Pose>& poses)
+{
+  emitter_frames_.clear();
+  const std::vector<EmitterConfig>& emitters = sim.scene().emitters;
+  for (std::size_t i = 0; i < emitters.size(); ++i)
+  {
+    if (emitters[i].frame.empty()) continue;
+    EmitterFrame ef;
+    ef.frame = emitters[i].frame;
+    ef.index = i;
+    ef.offset = emitters[i].pose;
+    std::optional<Pose> p;
+    if (auto it = poses.find(ef.frame); it != poses.end()) p = it->second;
+    std::string why;
+    if (!p) p = lookup(ef.frame, ros::Time(0), &why);
+    if (p)
+      poseEmitter(sim, ef, *p);
+    else
+    {
+      ROS_WARN("tf: no pose of emitter frame '%s' (%s); emitter '%s' stays at its scene pose until tf has one",
+               ef.frame.c_str(), why.c_str(), emitters[i].name.c_str());
+      // The scene's pose read as a pose in the fixed frame.
+      ef.last_pose = Pose();
+      poseEmitter(sim, ef, Pose());
+    }
+    emitter_frames_.push_back(ef);
+  }
+}
+
 std::map<std::string, Pose> LinkPoses::newestPoses()
 {
   std::map<std::string, Pose> poses;
@@ -112,6 +151,12 @@ std::map<std::string, Pose> LinkPoses::newestPoses()
     std::string why;
     auto p = lookup(lb.link, ros::Time(0), &why);
     poses[lb.link] = p ? *p : lb.last_pose;
+  }
+  for (const EmitterFrame& ef : emitter_frames_)
+  {
+    std::string why;
+    auto p = lookup(ef.frame, ros::Time(0), &why);
+    poses[ef.frame] = p ? *p : ef.last_pose;
   }
   return poses;
 }
@@ -163,6 +208,21 @@ void LinkPoses::poseBodies(Simulation& sim, const ros::Time& stamp, bool jump)
     // again costs nothing there).
     sim.setBodyPose(lb.index, *p, jump);
     lb.last_pose = *p;
+  }
+  // Nozzles fixed in tf frames, at the same instant (a nozzle has no velocity of its own to
+  // derive: the water leaves at its exit velocity).
+  for (EmitterFrame& ef : emitter_frames_)
+  {
+    std::string why;
+    std::optional<Pose> p = lookup(ef.frame, stamp, &why);
+    if (!p && !stamp.isZero()) p = lookup(ef.frame, ros::Time(0), &why);
+    if (!p)
+    {
+      ROS_WARN_THROTTLE(5.0, "tf: no pose of emitter frame '%s' (%s); the nozzle stays where it was", ef.frame.c_str(),
+                        why.c_str());
+      continue;
+    }
+    poseEmitter(sim, ef, *p);
   }
 }
 

@@ -50,6 +50,14 @@ std::vector<std::string> SolverLoop::linkNames() const
   return names;
 }
 
+std::vector<std::string> SolverLoop::tfFrames() const
+{
+  std::vector<std::string> frames = linkNames();
+  for (const EmitterConfig& e : base_scene_.emitters)
+    if (!e.frame.empty() && std::find(frames.begin(), frames.end(), e.frame) == frames.end()) frames.push_back(e.frame);
+  return frames;
+}
+
 std::set<std::string> SolverLoop::freeLinkNames() const
 {
   std::set<std::string> names;
@@ -99,6 +107,7 @@ void SolverLoop::build(const std::map<std::string, Pose>& poses)
         "(fill.relax_tolerance %.3g %%): it starts unsettled and will move at t = 0; raise fill.relax_max_steps",
         scene.fill.relax_max_steps, 100.0 * fill.final_density_error, 100.0 * scene.fill.relax_tolerance);
   links_.attach(*sim_, linkNames(), poses);
+  links_.attachEmitters(*sim_, poses);
   const std::size_t nb = sim_->numBodies();
   body_ranges_.clear();
   for (std::size_t k = 0; k < nb; ++k)

@@ -13,7 +13,7 @@
 
 namespace fluid_sim
 {
-class ContactSolver;  // rigid_dynamics.h
+class ContactResolver;  // rigid_dynamics.h
 
 /// One rigid body and its motion.
 struct Body
@@ -113,9 +113,10 @@ public:
   void poseMoving(double time);
 
   /// Free bodies: one step of dt (s) under gravity (m/s^2), the fluid's force and torque of the
-  /// step just solved (Body::force, torque) and contacts (Eqs. A24-A26, rigid_dynamics.cpp), and
-  /// their particles written at the new poses (poseMoving() leaves free bodies alone).
-  void stepFree(double dt, const Vec3d& gravity, ContactSolver& contacts);
+  /// step just solved (Body::force, torque) and contacts (Eqs. A24-A27, rigid_dynamics.cpp,
+  /// bullet_contacts.cpp), and their particles written at the new poses (poseMoving() leaves free
+  /// bodies alone).
+  void stepFree(double dt, const Vec3d& gravity, ContactResolver& contacts);
   bool hasFree() const
   {
     return has_free_;
@@ -131,11 +132,20 @@ public:
   void updateReports(const BodyWrenches& wrenches, const Lists& fluid_boundary, std::size_t fluid_count,
                      PressureAt&& pressure_at);
 
-  /// Incremented whenever a particle position changes (the neighbour search rebuilds its
-  /// boundary grid then).
+  /// Incremented whenever a particle position changes, of any body, of a body that never moves
+  /// (Body::moving false: written when the set is built), and of a moving one (the neighbour
+  /// search sorts the static and the moving bodies' particles separately, each when it changed).
   std::uint64_t positionsVersion() const
   {
-    return version_;
+    return static_version_ + moving_version_;
+  }
+  std::uint64_t staticVersion() const
+  {
+    return static_version_;
+  }
+  std::uint64_t movingVersion() const
+  {
+    return moving_version_;
   }
 
   // Boundary particles, world frame.
@@ -151,7 +161,7 @@ private:
 
   std::vector<Body> bodies_;
   std::vector<std::uint8_t> contact_mark_;  // per boundary particle, scratch of updateReports
-  std::uint64_t version_ = 0;
+  std::uint64_t static_version_ = 0, moving_version_ = 0;
   bool has_free_ = false;
 };
 

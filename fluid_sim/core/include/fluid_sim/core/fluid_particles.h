@@ -50,6 +50,15 @@ struct FluidParticles
     p_total.push_back(0);
   }
 
+  /// Room for n particles in every field and in the sort's scratch (which trades storage with the
+  /// fields at every sort): appending up to n then allocates nothing.
+  void reserve(std::size_t n)
+  {
+    forEachField([&](auto& field) { field.reserve(n); });
+    scratch_vec3_.reserve(n);
+    scratch_real_.reserve(n);
+  }
+
   /// Every field f becomes f[order[k]] at k (a permutation of [0, size())).
   void reorder(const std::vector<Index>& order)
   {

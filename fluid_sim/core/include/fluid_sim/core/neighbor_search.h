@@ -87,8 +87,8 @@ struct NeighborLists
   std::vector<std::vector<Index>> scratch_index;
   std::vector<std::vector<Real>> scratch_factor;
   std::vector<std::vector<Real>> scratch_weight;
-  std::vector<std::size_t> scratch_used;  // entries in use per block
-  std::vector<Real> scratch_soa;          // the points as x, y, z arrays
+  std::vector<std::size_t> scratch_used;       // entries in use per block
+  std::vector<std::vector<Real>> scratch_soa;  // per point set without its own: x, y, z arrays
 
   std::size_t rows() const
   {
@@ -104,6 +104,29 @@ struct NeighborLists
 struct NoPairValue
 {
 };
+
+/// A set of points sorted by the cells of `grid`, as buildNeighborLists reads it: the positions in
+/// grid order (`sorted`, m, `count` of them), optionally the same as x, y, z arrays (`soa`, 3 x
+/// count, read by the AVX-512 path; nullptr = made from `sorted` by the search), and each sorted
+/// point's index in the caller's numbering (`ids`, nullptr = identity).
+struct GridPoints
+{
+  const UniformGrid* grid = nullptr;
+  const Vec3* sorted = nullptr;
+  const Real* soa = nullptr;
+  const Index* ids = nullptr;
+  std::size_t count = 0;
+};
+
+/// Fills `soa` (resized to 3 x points.size()) with the points' x, then y, then z coordinates (m).
+void toCoordinateArrays(const std::vector<Vec3>& points, std::vector<Real>& soa);
+
+/// Builds `out` for the `queries` against every point set in `sources` (a row lists the hits of
+/// the first set, then of the second, ...), as the single-set form below. Sets whose points do not
+/// move keep their grid and arrays from step to step: only the queries are searched again.
+template <class PairGradFactor, class PairWeight>
+void buildNeighborLists(const std::vector<Vec3>& queries, const std::vector<GridPoints>& sources, Real radius,
+                        bool skip_self, PairGradFactor&& pairGradFactor, PairWeight&& pairWeight, NeighborLists& out);
 
 /// Builds `out` for the `queries` against the points in `grid` (whose sorted positions are
 /// `sorted_points`, i.e. points in grid order; `ids` maps a sorted position to the stored index, or

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <type_traits>
+#include <utility>
 #include <vector>
 
 #if defined(__AVX512F__)
@@ -19,6 +20,19 @@ void buildNeighborLists(const std::vector<Vec3>& queries, const UniformGrid& gri
                         const std::vector<Vec3>& sorted_points, const std::vector<Index>& ids, Real radius,
                         bool skip_self, PairGradFactor&& pairGradFactor, PairWeight&& pairWeight, NeighborLists& out)
 {
+  GridPoints source;
+  source.grid = &grid;
+  source.sorted = sorted_points.data();
+  source.ids = ids.empty() ? nullptr : ids.data();
+  source.count = sorted_points.size();
+  buildNeighborLists(queries, std::vector<GridPoints>{source}, radius, skip_self,
+                     std::forward<PairGradFactor>(pairGradFactor), std::forward<PairWeight>(pairWeight), out);
+}
+
+template <class PairGradFactor, class PairWeight>
+void buildNeighborLists(const std::vector<Vec3>& queries, const std::vector<GridPoints>& sources, Real radius,
+                        bool skip_self, PairGradFactor&& pairGradFactor, PairWeight&& pairWeight, NeighborLists& out)
+{
   constexpr bool kFactor = !std::is_same_v<std::decay_t<PairGradFactor>, NoPairValue>;
   constexpr bool kWeight = !std::is_same_v<std::decay_t<PairWeight>, NoPairValue>;
   static_assert(kFactor || kWeight, "buildNeighborLists: ask for at least one value per pair");
@@ -29,7 +43,10 @@ void buildNeighborLists(const std::vector<Vec3>& queries, const UniformGrid& gri
   const std::size_t blocks = (n + kBlock - 1) / kBlock;
   out.offset.assign(n + 1, 0);
   const Real r2max = radius * radius;
-  const int reach = int(std::ceil(double(radius) / grid.cellSize() - 1e-9));
+  // Cells within reach of a query's cell, per set (the sets' grids may differ).
+  std::vector<int> reach(sources.size());
+  for (std::size_t s = 0; s < sources.size(); ++s)
+    reach[s] = int(std::ceil(double(radius) / sources[s].grid->cellSize() - 1e-9));
   // One pass over candidates per block into block-local lists, then one copy into the CSR rows:
   // a single distance test per candidate instead of a count pass plus a fill pass. The factor
   // staging first holds r^2 (m^2) of every hit.
@@ -50,22 +67,33 @@ void buildNeighborLists(const std::vector<Vec3>& queries, const UniformGrid& gri
   constexpr bool kVector = false;
 #endif
   // The vector path reads the points as x, y, z arrays (one range's distances are then a vector
-  // loop); the scalar path reads sorted_points directly and needs no copy.
-  const std::size_t m = sorted_points.size();
-  auto& soa = out.scratch_soa;
+  // loop): a set that does not bring its own has them made here. The scalar path reads the
+  // sorted positions directly and needs no copy.
+  std::vector<const Real*> soa_of(sources.size(), nullptr);
   if constexpr (kVector)
   {
-    soa.resize(3 * m);
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, m, 4096), [&](const tbb::blocked_range<std::size_t>& r) {
-      for (std::size_t k = r.begin(); k != r.end(); ++k)
+    if (out.scratch_soa.size() < sources.size()) out.scratch_soa.resize(sources.size());
+    for (std::size_t s = 0; s < sources.size(); ++s)
+    {
+      soa_of[s] = sources[s].soa;
+      if (soa_of[s] == nullptr)
       {
-        soa[k] = sorted_points[k].x();
-        soa[m + k] = sorted_points[k].y();
-        soa[2 * m + k] = sorted_points[k].z();
+        std::vector<Real>& soa = out.scratch_soa[s];
+        const std::size_t m = sources[s].count;
+        soa.resize(3 * m);
+        const Vec3* const pts = sources[s].sorted;
+        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, m, 4096), [&](const tbb::blocked_range<std::size_t>& r) {
+          for (std::size_t k = r.begin(); k != r.end(); ++k)
+          {
+            soa[k] = pts[k].x();
+            soa[m + k] = pts[k].y();
+            soa[2 * m + k] = pts[k].z();
+          }
+        });
+        soa_of[s] = soa.data();
       }
-    });
+    }
   }
-  const Index* const id = ids.empty() ? nullptr : ids.data();
   constexpr std::size_t kSlack = 16;  // the vector path stores whole vectors past the cursor
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, blocks, 1), [&](const tbb::blocked_range<std::size_t>& rb) {
     for (std::size_t b = rb.begin(); b != rb.end(); ++b)
@@ -83,61 +111,67 @@ void buildNeighborLists(const std::vector<Vec3>& queries, const UniformGrid& gri
         const Vec3 xi = queries[i];
         const std::size_t row_start = used;
         const Index self = skip_self ? Index(i) : ~Index(0);
-        grid.forEachRange(xi, reach, [&](Index begin, Index end) {
-          const std::size_t len = end - begin;
-          if (bi.size() < used + len + kSlack)
-          {
-            bi.resize(std::max(2 * bi.size(), used + len + kSlack + 256));
-            bf.resize(bi.size());
-            if constexpr (kWeight) block_weight[b].resize(bi.size());
-          }
-          Index* const out_j = bi.data();
-          Real* const out_d2 = bf.data();
-#if defined(__AVX512F__)
-          if constexpr (kVector)
-          {
-            const float* const px = soa.data();
-            const float* const py = px + m;
-            const float* const pz = py + m;
-            // 16 candidates at a time: distances, a hit mask, and the hits compressed in
-            // registers and stored as whole vectors (the memory form of vpcompress is slow on
-            // some cores); the cursor advances by the number of hits.
-            const __m512 qx = _mm512_set1_ps(xi.x()), qy = _mm512_set1_ps(xi.y()), qz = _mm512_set1_ps(xi.z());
-            const __m512 r2v = _mm512_set1_ps(r2max);
-            const __m512i lane = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
-            const __m512i selfv = _mm512_set1_epi32(int(self));
-            for (Index k = begin; k < end; k += 16)
+        for (std::size_t s = 0; s < sources.size(); ++s)
+        {
+          const GridPoints& src = sources[s];
+          const Index* const id = src.ids;
+          src.grid->forEachRange(xi, reach[s], [&](Index begin, Index end) {
+            const std::size_t len = end - begin;
+            if (bi.size() < used + len + kSlack)
             {
-              const unsigned left = end - k;
-              const __mmask16 valid = left >= 16 ? __mmask16(0xFFFF) : __mmask16((1u << left) - 1u);
-              const __m512 dx = _mm512_sub_ps(_mm512_maskz_loadu_ps(valid, px + k), qx);
-              const __m512 dy = _mm512_sub_ps(_mm512_maskz_loadu_ps(valid, py + k), qy);
-              const __m512 dz = _mm512_sub_ps(_mm512_maskz_loadu_ps(valid, pz + k), qz);
-              const __m512 d2 = _mm512_fmadd_ps(dz, dz, _mm512_fmadd_ps(dy, dy, _mm512_mul_ps(dx, dx)));
-              const __m512i j =
-                  id ? _mm512_maskz_loadu_epi32(valid, id + k) : _mm512_add_epi32(_mm512_set1_epi32(int(k)), lane);
-              const __mmask16 hit =
-                  _mm512_mask_cmp_ps_mask(valid, d2, r2v, _CMP_LT_OQ) & __mmask16(~_mm512_cmpeq_epi32_mask(j, selfv));
-              _mm512_storeu_si512(out_j + used, _mm512_maskz_compress_epi32(hit, j));
-              _mm512_storeu_ps(out_d2 + used, _mm512_maskz_compress_ps(hit, d2));
-              used += std::size_t(_mm_popcnt_u32(hit));
+              bi.resize(std::max(2 * bi.size(), used + len + kSlack + 256));
+              bf.resize(bi.size());
+              if constexpr (kWeight) block_weight[b].resize(bi.size());
             }
-            return;
-          }
+            Index* const out_j = bi.data();
+            Real* const out_d2 = bf.data();
+#if defined(__AVX512F__)
+            if constexpr (kVector)
+            {
+              const std::size_t m = src.count;
+              const float* const px = soa_of[s];
+              const float* const py = px + m;
+              const float* const pz = py + m;
+              // 16 candidates at a time: distances, a hit mask, and the hits compressed in
+              // registers and stored as whole vectors (the memory form of vpcompress is slow on
+              // some cores); the cursor advances by the number of hits.
+              const __m512 qx = _mm512_set1_ps(xi.x()), qy = _mm512_set1_ps(xi.y()), qz = _mm512_set1_ps(xi.z());
+              const __m512 r2v = _mm512_set1_ps(r2max);
+              const __m512i lane = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+              const __m512i selfv = _mm512_set1_epi32(int(self));
+              for (Index k = begin; k < end; k += 16)
+              {
+                const unsigned left = end - k;
+                const __mmask16 valid = left >= 16 ? __mmask16(0xFFFF) : __mmask16((1u << left) - 1u);
+                const __m512 dx = _mm512_sub_ps(_mm512_maskz_loadu_ps(valid, px + k), qx);
+                const __m512 dy = _mm512_sub_ps(_mm512_maskz_loadu_ps(valid, py + k), qy);
+                const __m512 dz = _mm512_sub_ps(_mm512_maskz_loadu_ps(valid, pz + k), qz);
+                const __m512 d2 = _mm512_fmadd_ps(dz, dz, _mm512_fmadd_ps(dy, dy, _mm512_mul_ps(dx, dx)));
+                const __m512i j =
+                    id ? _mm512_maskz_loadu_epi32(valid, id + k) : _mm512_add_epi32(_mm512_set1_epi32(int(k)), lane);
+                const __mmask16 hit =
+                    _mm512_mask_cmp_ps_mask(valid, d2, r2v, _CMP_LT_OQ) & __mmask16(~_mm512_cmpeq_epi32_mask(j, selfv));
+                _mm512_storeu_si512(out_j + used, _mm512_maskz_compress_epi32(hit, j));
+                _mm512_storeu_ps(out_d2 + used, _mm512_maskz_compress_ps(hit, d2));
+                used += std::size_t(_mm_popcnt_u32(hit));
+              }
+              return;
+            }
 #endif
-          // Branch-free compaction: every candidate is written, only hits advance the cursor.
-          // Once the particles are disordered the hit test is a coin toss for the branch
-          // predictor; with a branch the search took 3x longer late in a dam break than on the
-          // initial lattice at the same candidate count.
-          for (Index k = begin; k < end; ++k)
-          {
-            const Real d2 = (xi - sorted_points[k]).squaredNorm();
-            const Index j = id ? id[k] : k;
-            out_j[used] = j;
-            out_d2[used] = d2;
-            used += std::size_t((d2 < r2max) & (j != self));
-          }
-        });
+            // Branch-free compaction: every candidate is written, only hits advance the cursor.
+            // Once the particles are disordered the hit test is a coin toss for the branch
+            // predictor; with a branch the search took 3x longer late in a dam break than on the
+            // initial lattice at the same candidate count.
+            for (Index k = begin; k < end; ++k)
+            {
+              const Real d2 = (xi - src.sorted[k]).squaredNorm();
+              const Index j = id ? id[k] : k;
+              out_j[used] = j;
+              out_d2[used] = d2;
+              used += std::size_t((d2 < r2max) & (j != self));
+            }
+          });
+        }
         // Values for the hits only (r^2 is overwritten by the factor in place).
         if constexpr (kWeight && kFactor)
         {

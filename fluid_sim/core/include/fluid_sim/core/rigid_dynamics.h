@@ -1,7 +1,8 @@
 #pragma once
 // Free rigid bodies (scene key `dynamic`, docs/method.md, Free bodies): mass properties of the
 // boundary shapes, the Newton-Euler step under gravity and the fluid's wrench (Eqs. A24, A25), and
-// contacts between bodies resolved as impulses on pairs of boundary particles (Eq. A26).
+// contacts between bodies resolved as impulses on pairs of boundary particles (Eq. A26; the
+// default model, Bullet's, is in bullet_contacts.h).
 
 #include <cstddef>
 #include <cstdint>
@@ -43,11 +44,24 @@ MassProperties massProperties(const BoundaryConfig& b, const std::string& key);
 /// The inertia matrix from URDF-ordered values ixx, iyy, izz, ixy, ixz, iyz (kg m^2).
 Mat3d inertiaMatrix(const std::array<double, 6>& values);
 
+/// Contacts between bodies where at least one is free: given the free bodies' velocities after
+/// gravity and the fluid's wrench (Eqs. A24, A25) and every body's pose at the step's start, changes
+/// the free bodies' velocities (v_com, omega) by the contacts' impulses over the step `dt` (s) and
+/// sets each body's contact_force (N, world) to the impulses it received over dt. Two models:
+/// ContactSolver below (`contacts.model: particles`, Eq. A26) and BulletContacts
+/// (bullet_contacts.h, `contacts.model: bullet`, Eqs. A26b, A27).
+class ContactResolver
+{
+public:
+  virtual ~ContactResolver() = default;
+  virtual void apply(BodySet& bodies, double dt) = 0;
+};
+
 /// Contacts between bodies where at least one is free (Eq. A26): pairs of boundary particles of
 /// different bodies closer than the contact distance plus a margin, resolved by sequential
 /// impulses with Coulomb friction. Kinematic bodies (static, scripted, posed from outside) push
 /// free ones and are not pushed back.
-class ContactSolver
+class ContactSolver : public ContactResolver
 {
 public:
   /// `spacing`: the scene's fluid spacing (m). Two solids in touch have their boundary layers one
@@ -58,7 +72,7 @@ public:
   /// velocities (v_com, omega) so that no contact closes faster than its gap allows over `dt`
   /// (s) and none pushes apart faster than a fraction of its overlap per step. Each body's
   /// contact_force (N, world) is set to the impulses it received over dt.
-  void apply(BodySet& bodies, double dt);
+  void apply(BodySet& bodies, double dt) override;
 
   std::size_t contacts() const
   {

@@ -5,6 +5,7 @@
 
 #include <array>
 #include <cstddef>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <string>
@@ -305,11 +306,58 @@ struct SpillConfig
   double below = 0.0;    // m, world z                             key: spill.below
 };
 
+/// A nozzle that adds water during the run (key emitters[i]; emitters.h, docs/method.md Emitters).
+enum class NozzleShape
+{
+  Circle,    // key: circle {radius}
+  Rectangle  // key: rectangle {size: [w, h]}, along the nozzle frame's x and y
+};
+
+struct EmitterConfig
+{
+  std::string name;  // key: name, a ROS base name like a region's
+  NozzleShape shape = NozzleShape::Circle;
+  double radius = 0.0;                             // m, circle               key: circle.radius
+  Eigen::Vector2d size = Eigen::Vector2d::Zero();  // m, rectangle            key: rectangle.size
+  // Nozzle frame -> world, or -> the body's frame when attached: the opening is centred on the
+  // frame's origin in its x-y plane and the water leaves along its +z axis.
+  // key: pose {xyz, rpy}, or pose {xyz} with direction [x, y, z] (the +z axis)
+  Pose pose;
+  double speed = 0.0;      // m/s, exit speed         key: speed
+  double flow_rate = 0.0;  // m^3/s                   key: flow_rate (exactly one of speed, flow_rate)
+  double start = 0.0;      // s, emits from then on   key: start
+  double duration = std::numeric_limits<double>::infinity();  // s      key: duration (default: no end)
+  // key: body. A boundary body's name (a URDF link's is the link name): the nozzle is fixed in
+  // its frame and moves with it; the water leaves with the body's velocity at the nozzle added.
+  std::string body;
+  // key: max_particles. The most particles it emits (0: as many as flow_rate x duration makes,
+  // or, without a duration, until the scene's max_fluid_particles is reached).
+  std::size_t max_particles = 0;
+  // key: frame (the ROS node only). A tf frame the nozzle is fixed in (pose relative to it): the
+  // node looks it up before every step and poses the nozzle (Simulation::setEmitterPose).
+  std::string frame;
+  bool externally_posed = false;  // posed by the caller (set with frame)
+};
+
+/// How contacts between bodies are found and resolved (docs/method.md, Free bodies, Eq. A26).
+enum class ContactModel
+{
+  Bullet,    // Bullet's collision detection and contact solver on the bodies' shapes (bullet_contacts.h)
+  Particles  // impulses on pairs of boundary particles (ContactSolver, rigid_dynamics.h)
+};
+
 /// Contacts between bodies, where a free body is involved (docs/method.md, Free bodies).
 struct ContactConfig
 {
-  double friction = 0.5;  // Coulomb coefficient, unit-less, >= 0     key: contacts.friction
+  double friction = 0.5;                      // Coulomb coefficient, unit-less, >= 0   key: contacts.friction
+  ContactModel model = ContactModel::Bullet;  // key: contacts.model (bullet | particles)
+  // Rolling resistance (model bullet): a free body's rolling is resisted by a torque up to
+  // rolling_resistance x r x N, r its inner radius (m), N the normal force (N). Unit-less, >= 0.
+  // Bullet's contacts set a round body lying on a face rolling by themselves (docs/method_notes.md,
+  // Free bodies); 0.01 stops that for radii of 1-20 cm.   key: contacts.rolling_resistance
+  double rolling_resistance = 0.01;
 };
+const char* toString(ContactModel model);
 
 struct SceneConfig
 {
@@ -333,7 +381,8 @@ struct SceneConfig
   // Drains (key sinks: a box with an optional pose, or a sphere; a name as a region's): water
   // that enters one after a step is removed and counted against it. Never a body region.
   std::vector<RegionConfig> sinks;
-  double duration = 1.0;  // s, default run length for the runner     key: duration
+  std::vector<EmitterConfig> emitters;  // key: emitters
+  double duration = 1.0;                // s, default run length for the runner     key: duration
   /// Largest number of boundary particles one body may be sampled into; validate() refuses a
   /// body whose estimate (from its surface area and sample spacing) exceeds it, before sampling.
   std::size_t max_boundary_particles = 2000000;  //                    key: max_boundary_particles

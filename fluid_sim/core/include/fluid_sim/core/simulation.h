@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "fluid_sim/core/emitters.h"
 #include "fluid_sim/core/scene_config.h"
 #include "fluid_sim/core/types.h"
 
@@ -35,6 +36,7 @@ struct StepReport
   std::size_t fluid_particles = 0;  // after the step
   std::size_t removed = 0;          // particles that left the domain during this step
   std::size_t drained = 0;          // particles removed by the scene's sinks after this step
+  std::size_t emitted = 0;          // particles the scene's emitters released after this step
   std::size_t mls_fallbacks = 0;    // boundary particles using Eq. 16 this step (MLS only)
   std::size_t mls_reduced = 0;      // boundary particles with a pseudo-inverse fit (MLS only)
   std::size_t active_boundary = 0;  // boundary particles with a fluid neighbour
@@ -182,6 +184,14 @@ public:
   std::size_t removedTotal() const;  // particles that left the domain since start (sinks not counted)
   /// Per sink of the scene, in its order: what it removed since t = 0.
   const std::vector<SinkTotal>& sinkTotals() const;
+  /// Per scene emitter, in its order: what it released since t = 0 (emitters.h).
+  const std::vector<EmitterTotal>& emitterTotals() const;
+  /// Poses an emitter the caller moves (EmitterConfig::externally_posed: the node's `frame`):
+  /// nozzle frame -> world, used from the next step on. Throws ConfigError for an emitter that
+  /// is not posed from outside, std::invalid_argument for a non-finite pose.
+  void setEmitterPose(std::size_t index, const Pose& pose);
+  /// The nozzle frame -> world of an emitter now (an attached one at its body's pose).
+  Pose emitterPose(std::size_t index) const;
   double particleMass() const;  // kg
 
 private:

@@ -17,7 +17,22 @@ namespace fluid_sim
 {
 namespace io
 {
-class BodiesCsvWriter
+/// A CSV file the runner appends rows to: created (truncated) with its header line, 9
+/// significant digits as stats.csv and the instrument files; the writers below add the rows.
+class CsvFile
+{
+public:
+  /// Flushes; throws std::runtime_error naming the file if it could not be written.
+  void flush();
+
+protected:
+  /// Creates (truncates) `path` with the `header` line; throws std::runtime_error naming the file.
+  CsvFile(const std::string& path, const char* header);
+  std::string path_;
+  std::ofstream out_;
+};
+
+class BodiesCsvWriter : public CsvFile
 {
 public:
   /// Creates (truncates) `path` with the header. Throws std::runtime_error naming the file if it
@@ -27,31 +42,33 @@ public:
   /// One row per body of `bodies` whose `free` is set, at simulated time `t` (s); the others are
   /// skipped.
   void write(double t, const std::vector<BodyInfo>& bodies);
-  /// Flushes; throws std::runtime_error naming the file if it could not be written.
-  void flush();
 
   static const char* header();
-
-private:
-  std::string path_;
-  std::ofstream out_;
 };
 
 /// The runner's sinks.csv: what each sink (scene key sinks) has removed since t = 0, one row per
 /// sink per measurement (the same times as bodies.csv). Created only when the scene has a sink.
 /// Columns: t,sink,particles,volume_m3,mass_kg (cumulative; volume as particles times spacing^3).
-class SinksCsvWriter
+class SinksCsvWriter : public CsvFile
 {
 public:
   /// Creates (truncates) `path` with the header; throws std::runtime_error naming the file.
   explicit SinksCsvWriter(const std::string& path);
   void write(double t, const std::vector<SinkTotal>& sinks);
-  void flush();
   static const char* header();
+};
 
-private:
-  std::string path_;
-  std::ofstream out_;
+/// The runner's emitters.csv: what each emitter (scene key emitters) has released since t = 0, one
+/// row per emitter per measurement (the same times as bodies.csv). Created only when the scene has
+/// an emitter. Columns: t,emitter,particles,volume_m3,mass_kg,blocked (cumulative; volume as
+/// particles times spacing^3; blocked: nozzle points left out because water or a wall was there).
+class EmittersCsvWriter : public CsvFile
+{
+public:
+  /// Creates (truncates) `path` with the header; throws std::runtime_error naming the file.
+  explicit EmittersCsvWriter(const std::string& path);
+  void write(double t, const std::vector<EmitterTotal>& emitters);
+  static const char* header();
 };
 
 }  // namespace io

@@ -82,6 +82,9 @@ struct RunSummary
   // What each sink removed over the run (JSON: sinks {NAME: {particles, volume_m3, mass_kg}},
   // absent without sinks).
   std::vector<SinkTotal> sinks;
+  // What each emitter released (JSON: emitters {NAME: {particles, volume_m3, mass_kg, blocked,
+  // flow_rate_m3_s, speed_m_s, nozzle_points, budget_reached}}, absent without emitters).
+  std::vector<EmitterTotal> emitters;
 
   /// Simulated time per wall time over the whole run (0 before any time has passed).
   double realTimeFactor() const;

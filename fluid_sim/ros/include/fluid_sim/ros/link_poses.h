@@ -44,6 +44,11 @@ public:
   /// The links become bodies of `sim` (looked up by name), last posed at `poses`.
   void attach(const Simulation& sim, const std::vector<std::string>& links, const std::map<std::string, Pose>& poses);
 
+  /// The emitters fixed in a tf frame (scene key emitters[i].frame) become posed from tf, their
+  /// nozzles placed at `poses` (frame -> fixed frame) now; a frame missing there is looked up
+  /// (newest), else the nozzle stays at its scene pose with a warning.
+  void attachEmitters(Simulation& sim, const std::map<std::string, Pose>& poses);
+
   /// For a rebuild: each link's newest pose, or its last one where tf has none.
   std::map<std::string, Pose> newestPoses();
 
@@ -63,7 +68,7 @@ public:
     return buffer_;
   }
 
-  /// Number of links posed from tf.
+  /// Number of links posed from tf (emitter frames not counted).
   std::size_t size() const
   {
     return links_.size();
@@ -78,7 +83,18 @@ private:
     Pose last_pose;         // link -> fixed frame (m), last given to the simulation
   };
 
+  /// An emitter whose nozzle is fixed in a tf frame.
+  struct EmitterFrame
+  {
+    std::string frame;
+    std::size_t index = 0;  // in the simulation's emitters
+    Pose offset;            // nozzle frame -> tf frame (the scene's pose)
+    Pose last_pose;         // tf frame -> fixed frame, last used
+  };
+  void poseEmitter(Simulation& sim, EmitterFrame& ef, const Pose& frame_pose);
+
   const NodeOptions& opt_;
+  std::vector<EmitterFrame> emitter_frames_;
   tf2_ros::Buffer buffer_{ros::Duration(60.0)};
   std::unique_ptr<tf2_ros::TransformListener> listener_;
   std::vector<LinkBody> links_;

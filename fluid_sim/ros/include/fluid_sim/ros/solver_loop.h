@@ -57,6 +57,9 @@ public:
 
   /// Names of the links posed from tf (not the free ones).
   std::vector<std::string> linkNames() const;
+  /// The tf frames the node needs before it starts: the links posed from tf and the frames
+  /// emitters are fixed in (emitters[i].frame), each once.
+  std::vector<std::string> tfFrames() const;
   /// Names of the links that are free bodies (~free_links): the simulation moves them.
   std::set<std::string> freeLinkNames() const;
 

@@ -1,0 +1,380 @@
+#!/usr/bin/env python3
+"""Times fluid_sim_bench against SPlisHSPlasH (the speed yardstick) on the same dam break.
+
+    PYENV_VERSION=system /usr/bin/python3 scripts/yardstick.py \
+        --bench build/fluid_sim_bench \
+        --sph-bin /path/to/SPlisHSPlasH/bin/SPHSimulator \
+        --sph-scene-dir /path/to/SPlisHSPlasH/data/Scenes \
+        [--case 0.031:300:3 --case 0.017:60:2] [--rounds 2] [--threads 2] [--out DIR]
+
+For every case (spacing S in m, N steps of 1 ms) and every round, it runs in turn
+  1. ours, cold:  fluid_sim_bench SCENE --spacing S --method all --warmup 0 --steps N --threads T --json F
+  2. ours, warm:  the same with --set solver.warm_start=true
+  3. theirs:      OMP_NUM_THREADS=T SPHSimulator --no-gui --stopAt ... --output-dir D scene.json
+so that rounds alternate ours-theirs-ours-theirs, and prints one table: ms per step, µs per
+fluid particle-step, ours/theirs per particle-step against SPlisHSPlasH's run of the same round,
+and the split of a step into neighbour search, divergence solve, density (pressure) solve and
+the rest, in ms and %.
+
+The SPlisHSPlasH scene is generated from our scene file (config/bench_dam_break.yaml by
+default): the same tank box and the same water box sampled on the same lattice (particle
+diameter = our spacing, the same count and positions per axis), y up in SPlisHSPlasH where we
+have z up; DFSPH with Akinci boundary particles (boundaryHandlingMethod 0), a fixed 1 ms step
+(cflMethod 0), and our solver tolerances in percent (maxError 0.05 %, maxErrorV 0.1 %). Its
+box mesh is data/models/UnitBox.obj next to --sph-scene-dir.
+
+SPlisHSPlasH's DFSPH always warm-starts both solves (half the previous step's pressure), so its
+single row per round is compared with both our cold and our warm rows.
+
+Only the Python standard library and PyYAML are used (run with the system interpreter).
+"""
+
+import argparse
+import json
+import math
+import os
+import re
+import resource
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+
+import yaml
+
+REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+# ---------------------------------------------------------------------------------------------
+# Scene translation
+
+
+def lattice_axis(lo, hi, spacing):
+    """Our cell-centred lattice on one axis (fluid_fill.cpp): n points, the first at `first`."""
+    ext = hi - lo
+    n = int(math.floor(ext / spacing + 1e-9))
+    first = lo + 0.5 * (ext - n * spacing) + 0.5 * spacing
+    return n, first
+
+
+def our_to_theirs(v):
+    """Our axes (x, y, z up) to SPlisHSPlasH's (x, y up, z)."""
+    return [v[0], v[2], v[1]]
+
+
+def sph_scene(our_scene, spacing, unit_box_obj):
+    """The SPlisHSPlasH scene (a dict) for our scene file at `spacing`."""
+    boundaries = [b for b in our_scene.get("boundaries", []) if "box" in b and b.get("inside")]
+    if len(boundaries) != 1 or len(our_scene.get("fluid", [])) != 1 or "box" not in our_scene["fluid"][0]:
+        raise SystemExit("yardstick: the scene must have one container box and one fluid box")
+    tank = boundaries[0]["box"]
+    water = our_scene["fluid"][0]["box"]
+    radius = 0.5 * spacing
+    diam = spacing
+
+    tank_min, tank_max = tank["min"], tank["max"]
+    tank_centre = [0.5 * (a + b) for a, b in zip(tank_min, tank_max)]
+    tank_size = [b - a for a, b in zip(tank_min, tank_max)]
+
+    # SPlisHSPlasH (denseMode 0) puts round(L / d) - 1 particles per axis, the first at
+    # min + d. Its block is chosen so that they land on our lattice points: min = first - d,
+    # L = (n + 1) d.
+    block_min, block_max, counts = [], [], []
+    for a in range(3):
+        n, first = lattice_axis(water["min"][a], water["max"][a], spacing)
+        block_min.append(first - diam)
+        block_max.append(first - diam + (n + 1) * diam)
+        counts.append(n)
+
+    solver = our_scene.get("solver", {})
+    gravity = our_scene.get("gravity", [0.0, 0.0, -9.81])
+    viscosity = our_scene.get("viscosity", {}).get("coefficient", 0.01)
+    dt = our_scene["time_step"]["fixed"]
+    scene = {
+        "Configuration": {
+            "particleRadius": radius,
+            "simulationMethod": 4,  # DFSPH
+            "gravitation": our_to_theirs(gravity),
+            "timeStepSize": dt,
+            "cflMethod": 0,  # fixed step
+            "cflFactor": 1,
+            "cflMaxTimeStepSize": dt,
+            "boundaryHandlingMethod": 0,  # Akinci et al. 2012 boundary particles
+            "enablePartioExport": False,
+            "enableVTKExport": False,
+            "DFSPH": {
+                "minIterations": int(solver.get("min_iterations", 2)),
+                "maxIterations": int(solver.get("max_iterations", 100)),
+                "maxError": 100.0 * float(solver.get("density_error", 0.0005)),  # %
+                "maxIterationsV": int(solver.get("max_iterations", 100)),
+                "maxErrorV": 100.0 * float(solver.get("divergence_error", 0.001)),  # %
+                "enableDivergenceSolver": True,
+            },
+        },
+        "Materials": [
+            {
+                "id": "Fluid",
+                "density0": 1000,
+                "viscosityMethod": 1,  # its standard (Laplacian) viscosity; ours is XSPH
+                "Standard viscosity": {"viscosity": viscosity},
+            }
+        ],
+        "RigidBodies": [
+            {
+                "geometryFile": unit_box_obj,  # the box [-0.5, 0.5]^3
+                "translation": our_to_theirs(tank_centre),
+                "rotationAxis": [1, 0, 0],
+                "rotationAngle": 0,
+                "scale": our_to_theirs(tank_size),
+                "color": [0.1, 0.4, 0.6, 1.0],
+                "isDynamic": False,
+                "isWall": True,
+                "mapInvert": True,
+                "mapThickness": 0.0,
+                "mapResolution": [40, 30, 15],
+            }
+        ],
+        "FluidBlocks": [
+            {
+                "denseMode": 0,
+                "start": our_to_theirs(block_min),
+                "end": our_to_theirs(block_max),
+                "translation": [0, 0, 0],
+                "scale": [1, 1, 1],
+            }
+        ],
+    }
+    return scene, counts[0] * counts[1] * counts[2]
+
+
+# ---------------------------------------------------------------------------------------------
+# Runs
+
+
+def load_average():
+    with open("/proc/loadavg") as f:
+        return " ".join(f.read().split()[:3])
+
+
+def children_cpu_s():
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
+
+
+def run(cmd, env=None, log=None):
+    """Runs cmd; returns its output, wall-clock s and CPU s (user + system, whole process)."""
+    start = time.monotonic()
+    cpu0 = children_cpu_s()
+    proc = subprocess.run(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    wall = time.monotonic() - start
+    cpu = children_cpu_s() - cpu0
+    if log:
+        with open(log, "w") as f:
+            f.write(" ".join(cmd) + "\n" + proc.stdout)
+    if proc.returncode != 0:
+        sys.stderr.write(proc.stdout[-4000:])
+        raise SystemExit(f"yardstick: {' '.join(cmd)} exited with {proc.returncode}")
+    return proc.stdout, wall, cpu
+
+
+def run_ours(args, spacing, steps, warm, workdir, tag):
+    json_path = os.path.join(workdir, f"ours_{tag}.json")
+    cmd = [args.bench, args.scene, "--spacing", repr(spacing), "--method"] + args.methods + [
+        "--warmup", "0", "--steps", str(steps), "--threads", str(args.threads), "--json", json_path]
+    if warm:
+        cmd += ["--set", "solver.warm_start=true"]
+    _, wall, cpu = run(cmd, log=os.path.join(workdir, f"ours_{tag}.log"))
+    print(f"    ours {tag}: {wall:.0f} s wall, {cpu:.0f} s CPU ({cpu / wall / args.threads:.0%} of {args.threads} cores)",
+          flush=True)
+    with open(json_path) as f:
+        doc = json.load(f)
+    rows = []
+    for r in doc["rows"]:
+        total = r["ms_per_step_mean"]
+        nbr = r["ms_neighbors_per_step"]
+        div = r["ms_divergence_per_step"]
+        dens = r["ms_density_per_step"]
+        rows.append({
+            "code": "ours", "method": r["method"], "start": "warm" if warm else "cold",
+            "fluid": r["fluid_particles"], "boundary": r["boundary_particles"], "steps": r["steps"],
+            "sim_time": r["sim_time_s"], "ms": total, "nbr": nbr, "div": div, "dens": dens,
+            "rest": total - nbr - div - dens,
+            "div_it": r["divergence_iterations_per_step"], "dens_it": r["density_iterations_per_step"],
+            "flags": ("unstable" if r["steps_unstable"] else
+                      (f"nc={r['steps_not_converged']}" if r["steps_not_converged"] else "ok")),
+            "wall_s": wall, "cpu_s": cpu,
+        })
+    return rows
+
+
+AVG_TIME = re.compile(r"Average time: (.+?): ([-+0-9.eE]+) ms")
+TIME_SUM = re.compile(r"Time sum: (.+?): ([-+0-9.eE]+) ms")
+AVG_NUMBER = re.compile(r"Average number: (.+?): ([-+0-9.eE]+)")
+TOTAL_NUMBER = re.compile(r"Total number: (.+?): ([-+0-9.eE]+)")
+
+
+def run_theirs(args, scene_path, steps, dt, workdir, tag):
+    outdir = os.path.join(workdir, f"sph_out_{tag}")
+    os.makedirs(outdir, exist_ok=True)
+    env = dict(os.environ, OMP_NUM_THREADS=str(args.threads))
+    env.update(kv.split("=", 1) for kv in args.sph_env)
+    # stopAt halfway into step N + 1: SPlisHSPlasH steps while time <= stopAt, so N steps.
+    stop_at = (steps - 0.5) * dt
+    cmd = [args.sph_bin, "--no-gui", "--stopAt", repr(stop_at), "--output-dir", outdir, scene_path]
+    out, wall, cpu = run(cmd, env=env, log=os.path.join(workdir, f"sph_{tag}.log"))
+    print(f"    SPlisHSPlasH {tag}: {wall:.0f} s wall, {cpu:.0f} s CPU ({cpu / wall / args.threads:.0%} of "
+          f"{args.threads} cores; includes its boundary sampling unless cached)", flush=True)
+    avg = {m.group(1): float(m.group(2)) for m in AVG_TIME.finditer(out)}
+    sums = {m.group(1): float(m.group(2)) for m in TIME_SUM.finditer(out)}
+    counts = {m.group(1): float(m.group(2)) for m in AVG_NUMBER.finditer(out)}
+    totals = {m.group(1): float(m.group(2)) for m in TOTAL_NUMBER.finditer(out)}
+    fluid = re.search(r"Number of fluid particles: (\d+)", out)
+    boundary = re.search(r"Number of boundary particles: (\d+)", out)
+    if "SimStep" not in avg or not fluid:
+        raise SystemExit(f"yardstick: no 'Average time: SimStep' or particle count in {cmd}")
+    total = avg["SimStep"]
+    n_steps = round(sums["SimStep"] / total) if total > 0 else 0
+    nbr = avg.get("neighborhood_search", 0.0)
+    div = avg.get("divergenceSolve", 0.0)
+    dens = avg.get("pressureSolve", 0.0)
+    shutil.rmtree(outdir, ignore_errors=True)
+    return [{
+        "code": "SPlisHSPlasH", "method": "akinci", "start": "warm (always)",
+        "fluid": int(fluid.group(1)), "boundary": int(boundary.group(1)) if boundary else 0,
+        "steps": n_steps, "sim_time": totals.get("Time step size", float("nan")),
+        "ms": total, "nbr": nbr, "div": div, "dens": dens, "rest": total - nbr - div - dens,
+        "div_it": counts.get("DFSPH - iterationsV", float("nan")),
+        "dens_it": counts.get("DFSPH - iterations", float("nan")),
+        "flags": "", "wall_s": wall, "cpu_s": cpu,
+        "phases": {k: v for k, v in avg.items() if k != "SimStep"},
+    }]
+
+
+# ---------------------------------------------------------------------------------------------
+# Output
+
+
+def us_per_particle_step(row):
+    return 1000.0 * row["ms"] / row["fluid"]
+
+
+def split(row, key):
+    return f"{row[key]:.1f} ({100.0 * row[key] / row['ms']:.0f} %)" if row["ms"] > 0 else "-"
+
+
+def print_table(results):
+    header = ["particles (fluid)", "round", "code", "method", "start", "ms/step", "µs/particle-step",
+              "ours/theirs", "neighbour search", "divergence solve", "density solve", "rest",
+              "div. it./step", "dens. it./step"]
+    print("| " + " | ".join(header) + " |")
+    print("|" + " --- |" * len(header))
+    for case in results:
+        for rnd, rows in enumerate(case["rounds"], start=1):
+            theirs = next(r for r in rows if r["code"] == "SPlisHSPlasH")
+            for r in rows:
+                ratio = "" if r is theirs else f"{us_per_particle_step(r) / us_per_particle_step(theirs):.2f}"
+                if r["flags"] not in ("", "ok"):
+                    ratio += f" ({r['flags']})"
+                print("| " + " | ".join([
+                    f"{r['fluid']:,}", str(rnd), r["code"], r["method"], r["start"], f"{r['ms']:.1f}",
+                    f"{us_per_particle_step(r):.3f}", ratio, split(r, "nbr"), split(r, "div"), split(r, "dens"),
+                    split(r, "rest"), f"{r['div_it']:.2f}", f"{r['dens_it']:.2f}"]) + " |")
+
+
+def print_summary(results, target):
+    print(f"\nours/theirs per particle-step, over the rounds (target: at most {target}):")
+    for case in results:
+        ratios = {}
+        for rows in case["rounds"]:
+            theirs = next(r for r in rows if r["code"] == "SPlisHSPlasH")
+            for r in rows:
+                if r is not theirs:
+                    ratios.setdefault((r["method"], r["start"]), []).append(
+                        us_per_particle_step(r) / us_per_particle_step(theirs))
+        worst = max(max(v) for v in ratios.values())
+        print(f"  spacing {case['spacing']} m ({case['steps']} steps): " + ", ".join(
+            f"{m} {s} {min(v):.2f}-{max(v):.2f}" for (m, s), v in ratios.items()) +
+            f"; worst {worst:.2f}: {'holds' if worst <= target else 'does NOT hold'}")
+        theirs_phases = [r["phases"] for rows in case["rounds"] for r in rows if r["code"] == "SPlisHSPlasH"]
+        if theirs_phases:
+            keys = sorted(set().union(*theirs_phases), key=lambda k: -theirs_phases[0].get(k, 0.0))
+            print("    SPlisHSPlasH's phases, ms/step by round: " + "; ".join(
+                f"{k} " + "/".join(f"{p.get(k, 0.0):.2f}" for p in theirs_phases) for k in keys))
+
+
+def main():
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--bench", default=os.path.join(REPO, "build", "fluid_sim_bench"), help="our fluid_sim_bench")
+    p.add_argument("--scene", default=os.path.join(REPO, "config", "bench_dam_break.yaml"), help="our scene")
+    p.add_argument("--sph-bin", required=True, help="SPlisHSPlasH's bin/SPHSimulator")
+    p.add_argument("--sph-scene-dir", required=True,
+                   help="SPlisHSPlasH's data/Scenes (its box mesh is ../models/UnitBox.obj)")
+    p.add_argument("--sph-env", action="append", default=[],
+                   help="KEY=VALUE for SPlisHSPlasH's environment, repeatable (e.g. OMP_WAIT_POLICY=PASSIVE)")
+    p.add_argument("--case", action="append", default=[],
+                   help="SPACING:STEPS[:ROUNDS], repeatable (default 0.031:300, i.e. 32,768 fluid over 0.3 s)")
+    p.add_argument("--methods", nargs="+", default=["all"], help="our boundary pressure methods (default all)")
+    p.add_argument("--rounds", type=int, default=2, help="rounds per case unless the case gives its own")
+    p.add_argument("--threads", type=int, default=2)
+    p.add_argument("--target", type=float, default=0.25, help="ours/theirs per particle-step to meet")
+    p.add_argument("--out", help="directory for the scenes, logs and JSON (default: a temporary one)")
+    p.add_argument("--scenes-only", action="store_true", help="write the SPlisHSPlasH scenes and stop")
+    args = p.parse_args()
+    args.bench = os.path.abspath(args.bench)
+    args.scene = os.path.abspath(args.scene)
+    args.sph_bin = os.path.abspath(args.sph_bin)
+    cases = []
+    for c in args.case or ["0.031:300"]:
+        parts = c.split(":")
+        cases.append((float(parts[0]), int(parts[1]), int(parts[2]) if len(parts) > 2 else args.rounds))
+
+    unit_box = os.path.abspath(os.path.join(args.sph_scene_dir, "..", "models", "UnitBox.obj"))
+    if not os.path.isfile(unit_box):
+        raise SystemExit(f"yardstick: no {unit_box}")
+    workdir = os.path.abspath(args.out) if args.out else tempfile.mkdtemp(prefix="yardstick_")
+    os.makedirs(workdir, exist_ok=True)
+    with open(args.scene) as f:
+        our_scene = yaml.safe_load(f)
+    dt = float(our_scene["time_step"]["fixed"])
+
+    scene_paths = {}
+    for spacing, _, _ in cases:
+        scene, n = sph_scene(our_scene, spacing, unit_box)
+        path = os.path.join(workdir, f"sph_dam_break_{spacing}.json")
+        with open(path, "w") as f:
+            json.dump(scene, f, indent=2)
+        scene_paths[spacing] = path
+        print(f"scene {path}: particle radius {0.5 * spacing} m, {n:,} fluid particles expected")
+    if args.scenes_only:
+        return
+
+    print(f"workdir {workdir}; {args.threads} threads each; load average at start {load_average()}")
+    if args.sph_env:
+        print("SPlisHSPlasH's extra environment: " + " ".join(args.sph_env))
+    print("SPlisHSPlasH's DFSPH always warm-starts both solves; its row is compared with our cold and warm rows.\n")
+    results = []
+    t0 = time.monotonic()
+    for spacing, steps, rounds in cases:
+        case = {"spacing": spacing, "steps": steps, "rounds": [], "load": []}
+        for rnd in range(1, rounds + 1):
+            tag = f"{spacing}_{rnd}"
+            rows = run_ours(args, spacing, steps, False, workdir, tag + "_cold")
+            rows += run_ours(args, spacing, steps, True, workdir, tag + "_warm")
+            rows += run_theirs(args, scene_paths[spacing], steps, dt, workdir, tag)
+            case["rounds"].append(rows)
+            case["load"].append(load_average())
+            print(f"  spacing {spacing} round {rnd} done after {time.monotonic() - t0:.0f} s, "
+                  f"load average {case['load'][-1]}", flush=True)
+        results.append(case)
+
+    print(f"\nload average at the end {load_average()}\n")
+    print_table(results)
+    print_summary(results, args.target)
+    with open(os.path.join(workdir, "yardstick.json"), "w") as f:
+        json.dump(results, f, indent=1)
+    print(f"\nrows as JSON: {os.path.join(workdir, 'yardstick.json')}")
+
+
+if __name__ == "__main__":
+    main()
