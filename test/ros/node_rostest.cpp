@@ -857,13 +857,20 @@ TEST(FreeBody, FloatsIsPublishedOnTfAndResetPutsItBack)
   std_srvs::Trigger reset;
   ASSERT_TRUE(ros::service::call("/fluid_sim/reset", reset));
   EXPECT_TRUE(reset.response.success) << reset.response.message;
-  fluid_msgs::FreeBodyArray after;
+  // The callback runs on the spinner's threads: what it writes is read here under `mutex`
+  // (ThreadSanitizer reported the unguarded `after` and `got`, 2026-12-02).
+  fluid_msgs::FreeBodyArray latest;
   bool got = false;
   ros::Subscriber sub = nh.subscribe<fluid_msgs::FreeBodyArray>("/fluid_sim/free_bodies", 10,
                                                                 [&](const fluid_msgs::FreeBodyArray::ConstPtr& m) {
-                                                                  after = *m;
+                                                                  std::lock_guard<std::mutex> guard(mutex);
+                                                                  latest = *m;
                                                                   got = true;
                                                                 });
+  const auto received = [&] {
+    std::lock_guard<std::mutex> guard(mutex);
+    return got;
+  };
   ros::WallDuration(0.5).sleep();  // the subscription connects
   fluid_msgs::StepSimulation step;
   step.request.steps = 1;
@@ -871,8 +878,14 @@ TEST(FreeBody, FloatsIsPublishedOnTfAndResetPutsItBack)
   ASSERT_TRUE(step.response.success) << step.response.message;
   EXPECT_LT(step.response.sim_time, 0.01);
   const ros::WallTime wait = ros::WallTime::now();
-  while (!got && (ros::WallTime::now() - wait).toSec() < waitSeconds(10.0)) ros::WallDuration(0.05).sleep();
-  ASSERT_TRUE(got) << "no free_bodies message after the step";
+  while (!received() && (ros::WallTime::now() - wait).toSec() < waitSeconds(10.0)) ros::WallDuration(0.05).sleep();
+  sub.shutdown();
+  ASSERT_TRUE(received()) << "no free_bodies message after the step";
+  fluid_msgs::FreeBodyArray after;
+  {
+    std::lock_guard<std::mutex> guard(mutex);
+    after = latest;
+  }
   ASSERT_EQ(after.bodies.size(), 1u);
   const auto& p = after.bodies[0].pose;
   std::printf("after reset and one step: raft at (%.5f, %.5f, %.5f) m, orientation w %.6f\n", p.position.x,
