@@ -26,6 +26,9 @@ PACKAGES=(
   libtf2-ros-dev tf2-tools ros-robot-state-publisher
   liburdfdom-dev libassimp-dev libeigen3-dev libtbb-dev libgtest-dev libyaml-cpp-dev libtinyxml2-dev
   libbullet-dev
+  # The free surface as a mesh (core surface.cpp). Debian's FindOpenVDB.cmake needs Boost's
+  # iostreams CMake config too, which libopenvdb-dev does not depend on.
+  libopenvdb-dev libboost-iostreams-dev
   python3-roslaunch python3-rostopic python3-rosnode python3-rosparam python3-rosmsg
   python3-rostest rosbash python3-rosbag
   libnodeletlib-dev libnodeletlib-tools libnodelet-dev python3-nodelet pluginlib-dev
