@@ -20,9 +20,9 @@ export PYENV_VERSION=system
 PACKAGES=(
   build-essential cmake zlib1g-dev catkin ros-message-generation ros-message-runtime
   libroscpp-dev libroslib-dev librostest-dev
-  libstd-msgs-dev libgeometry-msgs-dev libsensor-msgs-dev
-  ros-std-msgs ros-geometry-msgs ros-sensor-msgs
-  python3-geometry-msgs python3-sensor-msgs python3-tf2-msgs
+  libstd-msgs-dev libgeometry-msgs-dev libsensor-msgs-dev libvisualization-msgs-dev
+  ros-std-msgs ros-geometry-msgs ros-sensor-msgs ros-visualization-msgs
+  python3-geometry-msgs python3-sensor-msgs python3-visualization-msgs python3-tf2-msgs
   libtf2-ros-dev tf2-tools ros-robot-state-publisher
   liburdfdom-dev libassimp-dev libeigen3-dev libtbb-dev libgtest-dev libyaml-cpp-dev libtinyxml2-dev
   libbullet-dev
