@@ -84,10 +84,11 @@ void fillSurfaceMarker(const SurfaceMesh& mesh, visualization_msgs::Marker& mark
   marker.pose = geometry_msgs::Pose();
   marker.pose.orientation.w = 1.0;  // rviz refuses a zero quaternion
   marker.scale.x = marker.scale.y = marker.scale.z = 1.0;
-  marker.color.r = 0.25f;  // water blue, a little translucent: the paddle shows through it
+  marker.color.r = 0.25f;  // water blue, opaque: rviz draws a translucent TRIANGLE_LIST unsorted (the far
+  // walls showed through the top in black patches)
   marker.color.g = 0.55f;
   marker.color.b = 0.95f;
-  marker.color.a = 0.85f;
+  marker.color.a = 1.0f;
   marker.lifetime = ros::Duration(0);  // until the next one (the last one stays while paused)
   marker.frame_locked = false;
   marker.colors.clear();
