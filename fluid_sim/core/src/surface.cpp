@@ -72,6 +72,9 @@ void checkOptions(double spacing, const SurfaceOptions& o)
   if (!(o.voxel_size >= 0.05 && o.voxel_size <= o.particle_radius))
     refuse("voxel_size = " + text(o.voxel_size) +
            " spacings: out of range [0.05, particle_radius = " + text(o.particle_radius) + "]");
+  if (!(o.drop_radius == 0.0 || (o.drop_radius >= 0.25 && o.drop_radius <= o.particle_radius)))
+    refuse("drop_radius = " + text(o.drop_radius) +
+           " spacings: must be 0 or in [0.25, particle_radius = " + text(o.particle_radius) + "]");
   if (o.smoothing_passes < 0 || o.smoothing_passes > 20)
     refuse("smoothing_passes = " + std::to_string(o.smoothing_passes) + ": out of range [0, 20]");
   if (!(o.adaptivity >= 0.0 && o.adaptivity <= 1.0))
@@ -160,11 +163,29 @@ SurfaceMesh reconstructSurface(const std::vector<Vec3>& positions, double spacin
   // face, and gaps at the lattice cells' corners inside when r < 0.87 s); the lattice's period s
   // is damped by exp(-2 pi^2 sigma^2 / s^2) = 0.003 per pass, a flat face stays flat. Not
   // LevelSetFilter: it re-normalises phi to a distance after every pass (measured: 1.8 s a pass
-  // for the demo's 3,600 particles at dx = s/4, against 0.2 s for this one; docs/method.md).
+  // for the demo's 3,600 particles at dx = s/4, against 0.2 s for this one, on a loaded machine;
+  // docs/method.md).
+  // Eq. A29b: phi = min(G * phi_0, phi_0 + r - r_d), every particle at least a sphere of radius
+  // r_d. The smoothing is wider than a lone particle's sphere (r = 2.3 voxels, sigma = 1.6): a
+  // drop of one or two particles came out with no surface at all. r_d = 0.45 s stays below a
+  // block's face (s/2 beyond its particles), so the water's faces are the smoothed ones.
+  const double drop = options.drop_radius * spacing;  // m, r_d
+  openvdb::FloatGrid::Ptr raw = drop > 0.0 && options.smoothing_passes > 0 ? grid->deepCopy() : nullptr;
   if (options.smoothing_passes > 0)
   {
     openvdb::tools::Filter<openvdb::FloatGrid> filter(*grid);
     filter.gaussian(1, options.smoothing_passes);
+  }
+  if (raw)
+  {
+    // The smoothing changes values, not which voxels are active: both grids have the same ones.
+    const float lift = static_cast<float>(r - drop);  // m
+    openvdb::FloatGrid::ConstAccessor before = raw->getConstAccessor();
+    for (auto v = grid->beginValueOn(); v; ++v)
+    {
+      const float sphere = before.getValue(v.getCoord()) + lift;
+      if (sphere < *v) v.setValue(sphere);
+    }
   }
 
   std::vector<openvdb::Vec3s> vertices;

@@ -35,6 +35,10 @@ struct SurfaceOptions
   /// between them inside. 0 = none (a bumpy surface with hollows inside the water); each further
   /// pass draws the faces inward and rounds edges more (a larger radius must make up for it).
   int smoothing_passes = 1;
+  /// Radius r_d of the sphere every particle keeps whatever the smoothing, in s (Eq. A29b): a lone
+  /// particle or a pair would otherwise vanish (the smoothing is wider than they are). Below s/2,
+  /// so that it stays inside the smoothed face of a block of water. 0 = none.
+  double drop_radius = 0.45;
   /// OpenVDB's adaptivity in [0, 1]: 0 = a uniform mesh (two triangles per voxel face the surface
   /// crosses); larger values merge flat parts into fewer, larger polygons.
   double adaptivity = 0.0;
