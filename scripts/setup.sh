@@ -20,12 +20,15 @@ export PYENV_VERSION=system
 PACKAGES=(
   build-essential cmake zlib1g-dev catkin ros-message-generation ros-message-runtime
   libroscpp-dev libroslib-dev librostest-dev
-  libstd-msgs-dev libgeometry-msgs-dev libsensor-msgs-dev
-  ros-std-msgs ros-geometry-msgs ros-sensor-msgs
-  python3-geometry-msgs python3-sensor-msgs python3-tf2-msgs
+  libstd-msgs-dev libgeometry-msgs-dev libsensor-msgs-dev libvisualization-msgs-dev
+  ros-std-msgs ros-geometry-msgs ros-sensor-msgs ros-visualization-msgs
+  python3-geometry-msgs python3-sensor-msgs python3-visualization-msgs python3-tf2-msgs
   libtf2-ros-dev tf2-tools ros-robot-state-publisher
   liburdfdom-dev libassimp-dev libeigen3-dev libtbb-dev libgtest-dev libyaml-cpp-dev libtinyxml2-dev
   libbullet-dev
+  # The free surface as a mesh (core surface.cpp). Debian's FindOpenVDB.cmake needs Boost's
+  # iostreams CMake config too, which libopenvdb-dev does not depend on.
+  libopenvdb-dev libboost-iostreams-dev
   python3-roslaunch python3-rostopic python3-rosnode python3-rosparam python3-rosmsg
   python3-rostest rosbash python3-rosbag
   libnodeletlib-dev libnodeletlib-tools libnodelet-dev python3-nodelet pluginlib-dev

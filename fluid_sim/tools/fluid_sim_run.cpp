@@ -1,8 +1,10 @@
 // fluid_sim_run: runs a scene headless and writes PLY frames, stats.csv and summary.json, the
 // instruments' regions.csv, probes.csv and spill.csv when the scene declares them, bodies.csv
-// when it has free bodies, sinks.csv when it has sinks and emitters.csv when it has emitters.
+// when it has free bodies, sinks.csv when it has sinks and emitters.csv when it has emitters;
+// with --surface the free surface as a mesh beside each frame (surface/NNNNNN.obj).
 //
 //   fluid_sim_run SCENE.yaml [--duration S] [--out DIR] [--set key.path=value ...] [--threads N]
+//                 [--surface]
 //
 // Exit codes: 0 ok, 1 I/O or internal error, 2 bad input (scene, option), 3 the run became
 // unstable, 130 interrupted (SIGINT). The summary and stats are written in cases 0, 3 and 130.
@@ -27,8 +29,10 @@
 
 #include "fluid_sim/core/measurements.h"
 #include "fluid_sim/core/simulation.h"
+#include "fluid_sim/core/surface.h"
 #include "fluid_sim/io/bodies_writer.h"
 #include "fluid_sim/io/measurement_writer.h"
+#include "fluid_sim/io/obj_writer.h"
 #include "fluid_sim/io/ply_writer.h"
 #include "fluid_sim/io/run_summary.h"
 #include "fluid_sim/io/scene_loader.h"
@@ -147,10 +151,11 @@ private:
   double next_fraction_ = 0.05;
 };
 
-/// Removes frames of an earlier run (NNNNNN.ply) so the directory holds one consistent series.
-void removeOldFrames(const fs::path& frames_dir)
+/// Removes frames of an earlier run (NNNNNN.<extension>: ply frames, obj surfaces) so the
+/// directory holds one consistent series.
+void removeOldFrames(const fs::path& frames_dir, const std::string& extension = "ply")
 {
-  static const std::regex frame_name("[0-9]{6}\\.ply(\\.tmp)?");
+  const std::regex frame_name("[0-9]{6}\\." + extension + "(\\.tmp)?");
   for (const auto& entry : fs::directory_iterator(frames_dir))
     if (entry.is_regular_file() && std::regex_match(entry.path().filename().string(), frame_name))
       fs::remove(entry.path());
@@ -213,7 +218,8 @@ struct Options
   double duration = -1.0;  // s; < 0: the scene's duration
   std::string out;
   std::vector<std::string> overrides;
-  int threads = 0;  // 0: all cores
+  int threads = 0;       // 0: all cores
+  bool surface = false;  // also write surface/NNNNNN.obj beside each frame
 };
 
 int run(const Options& options)
@@ -252,21 +258,53 @@ int run(const Options& options)
   const fs::path out_dir =
       options.out.empty() ? fs::path("out") / fs::path(options.scene).stem() : fs::path(options.out);
   const fs::path frames_dir = out_dir / "frames";
+  const fs::path surface_dir = out_dir / "surface";
   fs::create_directories(out_dir);
   if (frame_interval > 0.0)
   {
     fs::create_directories(frames_dir);
     removeOldFrames(frames_dir);
+    if (options.surface)
+    {
+      fs::create_directories(surface_dir);
+      removeOldFrames(surface_dir, "obj");
+    }
   }
+  else if (options.surface)
+    std::cerr << "warning: --surface writes a mesh beside each PLY frame, and output.frame_interval is 0 (no "
+                 "frames): no surface is written\n";
 
   io::RunStatistics stats(io::bodyNames(*sim));
   io::StatsCsvWriter csv((out_dir / "stats.csv").string());
   std::size_t frames = 0;      // written so far; the next file's number
   std::size_t frame_slot = 0;  // the next frame is due at frame_slot * frame_interval
+  // --surface: the free surface of each frame (core surface.h, OpenVDB), with the frame's number.
+  std::size_t surfaces = 0, surfaces_refused = 0;
+  double surface_ms = 0.0, surface_triangles = 0.0;  // summed over the surfaces written
+  const auto writeSurface = [&](std::size_t index) {
+    try
+    {
+      const SurfaceMesh mesh = reconstructSurface(sim->positions(), scene.spacing);
+      io::writeObj((surface_dir / io::surfaceFileName(index)).string(), mesh);
+      ++surfaces;
+      surface_ms += mesh.ms;
+      surface_triangles += double(mesh.triangles.size());
+      if (mesh.skipped_particles > 0)
+        std::cerr << "warning: surface " << io::surfaceFileName(index) << ": " << mesh.skipped_particles
+                  << " particles with a non-finite position left out\n";
+    }
+    catch (const ConfigError& e)  // the voxel budget: this frame's surface is left out, the run goes on
+    {
+      if (surfaces_refused++ == 0)
+        std::cerr << "warning: surface " << io::surfaceFileName(index) << " not written: " << e.what() << '\n';
+    }
+  };
   // Frame k is due at k * frame_interval; it is written after the step that ends nearest to it.
   const auto writeFrameIfDue = [&](double t, double dt, bool force) {
     if (frame_interval <= 0.0 || (!force && t + 0.5 * dt < frame_slot * frame_interval)) return;
-    io::writePly((frames_dir / io::frameFileName(frames++)).string(), *sim);
+    const std::size_t index = frames++;
+    io::writePly((frames_dir / io::frameFileName(index)).string(), *sim);
+    if (options.surface) writeSurface(index);
     frame_slot = std::max(frame_slot, static_cast<std::size_t>(std::floor((t + 0.5 * dt) / frame_interval)) + 1);
   };
   writeFrameIfDue(sim->time(), 0.0, false);
@@ -383,6 +421,15 @@ int run(const Options& options)
                   spill->volume);
     std::printf("\n");
   }
+  if (surfaces > 0 || surfaces_refused > 0)
+  {
+    std::printf("surface  %zu meshes in %s", surfaces, surface_dir.string().c_str());
+    if (surfaces > 0)
+      std::printf(" (%.1f ms, %.0f triangles each)", surface_ms / double(surfaces),
+                  surface_triangles / double(surfaces));
+    if (surfaces_refused > 0) std::printf("; %zu refused (the first one's reason above)", surfaces_refused);
+    std::printf("\n");
+  }
 
   if (status == "unstable")
   {
@@ -410,6 +457,8 @@ int main(int argc, char** argv)
   app.add_option("--set", options.overrides, "Override a scene key, e.g. --set solver.boundary_pressure=sph")
       ->allow_extra_args(false);
   app.add_option("--threads", options.threads, "Worker threads (default: all cores)")->check(CLI::PositiveNumber);
+  app.add_flag("--surface", options.surface,
+               "Also write the free surface as a triangle mesh beside each PLY frame: surface/NNNNNN.obj");
   try
   {
     app.parse(argc, argv);

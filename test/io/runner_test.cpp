@@ -109,6 +109,44 @@ TEST(Runner, OverridesAndDuration)
   EXPECT_FALSE(fs::exists(dir.path() / "result" / "frames"));
 }
 
+TEST(Runner, SurfaceWritesAnObjBesideEveryFrameWithItsNumber)
+{
+  test::TempDir dir;
+  dir.write("tiny.yaml", kTinyScene);
+  const RunResult plain = run(dir, "tiny.yaml --out plain --threads 1");
+  ASSERT_EQ(plain.exit_code, 0) << plain.err;
+  EXPECT_FALSE(fs::exists(dir.path() / "plain" / "surface"));  // nothing without --surface
+  // A stale surface of an earlier run is removed, as stale frames are.
+  fs::create_directories(dir.path() / "with" / "surface");
+  dir.write("with/surface/000099.obj", "# stale\n");
+  const RunResult r = run(dir, "tiny.yaml --out with --threads 1 --surface");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_FALSE(fs::exists(dir.path() / "with" / "surface" / "000099.obj"));
+  // The frames' times and numbers: t = 0, 0.05, ..., 0.2 s as 000000 ... 000004.
+  std::vector<std::string> frames, surfaces;
+  for (const auto& e : fs::directory_iterator(dir.path() / "with" / "frames")) frames.push_back(e.path().stem());
+  for (const auto& e : fs::directory_iterator(dir.path() / "with" / "surface"))
+  {
+    EXPECT_EQ(e.path().extension(), ".obj") << e.path();
+    surfaces.push_back(e.path().stem());
+  }
+  std::sort(frames.begin(), frames.end());
+  std::sort(surfaces.begin(), surfaces.end());
+  EXPECT_EQ(frames.size(), 5u);
+  EXPECT_EQ(surfaces, frames);
+  // Each a mesh (the 64 particles' block is one closed surface); the first one's triangles.
+  const std::string first = test::readFile(dir.file("with/surface/000000.obj"));
+  EXPECT_EQ(first.rfind("# fluid_sim free surface: ", 0), 0u) << first.substr(0, 80);
+  EXPECT_NE(first.find("\nv "), std::string::npos);
+  EXPECT_NE(first.find("\nf "), std::string::npos);
+  EXPECT_NE(r.out.find("surface  5 meshes"), std::string::npos) << r.out;
+  // The run itself is the same with and without it: its frames byte for byte.
+  for (const std::string& f : frames)
+    EXPECT_EQ(test::readFile(dir.file("with/frames/" + f + ".ply")),
+              test::readFile(dir.file("plain/frames/" + f + ".ply")))
+        << f;
+}
+
 TEST(Runner, BadSceneExitsTwoNamingFileAndKey)
 {
   test::TempDir dir;

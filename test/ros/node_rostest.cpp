@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
@@ -30,6 +31,7 @@
 #include <tf2_ros/static_transform_broadcaster.h>
 #include <tf2_ros/transform_broadcaster.h>
 #include <tf2_ros/transform_listener.h>
+#include <visualization_msgs/Marker.h>
 
 #include "fluid_msgs/ContactWrenchArray.h"
 #include "fluid_msgs/FreeBodyArray.h"
@@ -371,6 +373,33 @@ TEST(Tank, PublishesRegionAndProbes)
   EXPECT_NEAR(sum_ratio / settled.size(), 1.0, 0.25);
   std::printf("tank: probe `floor' reads %.4f of rho0 g d over %zu messages, %d checked against their cloud\n",
               sum_ratio / settled.size(), settled.size(), matched);
+}
+
+namespace
+{
+/// Markers received on `topic` while `clouds` particle clouds arrive on /fluid_sim/particles (at
+/// the scene's publish rate: 20 Hz in tank_scene.yaml).
+int markersDuring(const std::string& topic, int clouds)
+{
+  ros::NodeHandle nh;
+  std::atomic<int> markers{0};
+  ros::Subscriber sub = nh.subscribe<visualization_msgs::Marker>(
+      topic, 10, [&](const visualization_msgs::MarkerConstPtr&) { ++markers; });
+  for (int k = 0; k < clouds; ++k)
+    if (!waitFor<sensor_msgs::PointCloud2>("/fluid_sim/particles", 10.0))
+    {
+      ADD_FAILURE() << "no particles";
+      break;
+    }
+  return markers;
+}
+}  // namespace
+
+TEST(Tank, SurfaceIsOffByDefault)
+{
+  // ~surface_rate is 0 unless set: nothing on `surface`, even with a subscriber (the node would
+  // reconstruct for one), over 10 published frames.
+  EXPECT_EQ(markersDuring("/fluid_sim/surface", 10), 0);
 }
 
 TEST(Tank, DynamicReconfigureStartsFromTheSceneAndChangesTheSolver)
@@ -731,6 +760,67 @@ TEST(SimTime, SimulatedTimeFollowsClockNotWallTime)
   // Stamps are the simulated instant on the /clock time line, never ahead of it.
   EXPECT_GT(last.header.stamp.toSec(), 1000.0);
   EXPECT_LT(worst_lead, 1e-6) << "a stamp was ahead of /clock by " << worst_lead << " s";
+}
+
+// ------------------------------------------------------------------------------ surface.test
+// tank.test's node and scene with ~surface_rate 5 Hz (launch argument surface_rate): the water's
+// surface on /fluid_sim/surface.
+
+TEST(Surface, MarkerIsATriangleListInTheFixedFrameAtItsOwnRate)
+{
+  double spacing = 0;
+  ros::param::get("/fluid_sim/fluid_sim/spacing", spacing);
+  ASSERT_GT(spacing, 0.0);
+  std::vector<visualization_msgs::MarkerConstPtr> markers;
+  for (int k = 0; k < 3; ++k)
+  {
+    markers.push_back(waitFor<visualization_msgs::Marker>("/fluid_sim/surface", 60.0));
+    ASSERT_TRUE(markers.back()) << "no marker on /fluid_sim/surface within 60 s";
+  }
+  for (const auto& m : markers)
+  {
+    EXPECT_EQ(m->header.frame_id, "world");
+    EXPECT_EQ(m->type, visualization_msgs::Marker::TRIANGLE_LIST);
+    EXPECT_EQ(m->action, visualization_msgs::Marker::ADD);
+    EXPECT_EQ(m->pose.orientation.w, 1.0);
+    ASSERT_GT(m->points.size(), 0u);
+    EXPECT_EQ(m->points.size() % 3, 0u) << m->points.size() << " points: not whole triangles";
+    // Finite, and inside the tank (the box 0..0.3 x 0..0.15 x 0..0.3 m, its water 0.15 m deep)
+    // up to its particle layer half a spacing beyond the walls.
+    const double e = 0.5 * spacing + 1e-6;
+    double top = -1e9;
+    for (const auto& p : m->points)
+    {
+      ASSERT_TRUE(std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z));
+      EXPECT_TRUE(p.x > -e && p.x < 0.3 + e && p.y > -e && p.y < 0.15 + e && p.z > -e && p.z < 0.3 + e)
+          << p.x << " " << p.y << " " << p.z;
+      top = std::max(top, p.z);
+      if (HasFailure()) return;
+    }
+    EXPECT_NEAR(top, 0.15, 2 * spacing) << "the water's surface is 0.15 m high";
+  }
+  // At most 5 per second of the frames' stamps (ROS time at factor 0), however fast frames come.
+  for (std::size_t k = 1; k < markers.size(); ++k)
+    if (markers[k]->header.stamp != markers[k - 1]->header.stamp)  // the same one received twice
+      EXPECT_GE((markers[k]->header.stamp - markers[k - 1]->header.stamp).toSec(), 0.2 - 1e-6);
+}
+
+TEST(Surface, OffByDynamicReconfigurePublishesNothing)
+{
+  ASSERT_TRUE(ros::service::waitForService("/fluid_sim/fluid_sim/set_parameters", 10000));
+  dynamic_reconfigure::Reconfigure srv;
+  dynamic_reconfigure::DoubleParameter p;
+  p.name = "surface_rate";
+  p.value = 0.0;
+  srv.request.config.doubles.push_back(p);
+  ASSERT_TRUE(ros::service::call("/fluid_sim/fluid_sim/set_parameters", srv));
+  bool off = false;
+  for (const auto& d : srv.response.config.doubles)
+    if (d.name == "surface_rate") off = d.value == 0.0;
+  EXPECT_TRUE(off) << "the server did not report surface_rate 0";
+  // A surface being made when the rate changed may still come out: let it.
+  ros::WallDuration(1.0).sleep();
+  EXPECT_EQ(markersDuring("/fluid_sim/surface", 20), 0);
 }
 
 // ------------------------------------------------------------------------------ names.test

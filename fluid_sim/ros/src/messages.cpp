@@ -75,6 +75,36 @@ void fillBoundaryCloud(const std::vector<Vec3>& positions, const std::vector<Rea
   }
 }
 
+void fillSurfaceMarker(const SurfaceMesh& mesh, visualization_msgs::Marker& marker)
+{
+  marker.ns = "surface";
+  marker.id = 0;
+  marker.type = visualization_msgs::Marker::TRIANGLE_LIST;
+  marker.action = mesh.empty() ? visualization_msgs::Marker::DELETE : visualization_msgs::Marker::ADD;
+  marker.pose = geometry_msgs::Pose();
+  marker.pose.orientation.w = 1.0;  // rviz refuses a zero quaternion
+  marker.scale.x = marker.scale.y = marker.scale.z = 1.0;
+  marker.color.r = 0.25f;  // water blue, opaque: rviz draws a translucent TRIANGLE_LIST unsorted (the far
+  // walls showed through the top in black patches)
+  marker.color.g = 0.55f;
+  marker.color.b = 0.95f;
+  marker.color.a = 1.0f;
+  marker.lifetime = ros::Duration(0);  // until the next one (the last one stays while paused)
+  marker.frame_locked = false;
+  marker.colors.clear();
+  marker.points.resize(3 * mesh.triangles.size());
+  std::size_t k = 0;
+  for (const auto& t : mesh.triangles)
+    for (const Index i : t)
+    {
+      const Vec3& v = mesh.vertices[i];
+      geometry_msgs::Point& p = marker.points[k++];
+      p.x = double(v.x());
+      p.y = double(v.y());
+      p.z = double(v.z());
+    }
+}
+
 geometry_msgs::Wrench toWrench(const Vec3d& force, const Vec3d& torque)
 {
   geometry_msgs::Wrench w;
@@ -242,6 +272,7 @@ fluid_sim::FluidSimConfig toReconfigure(const SolverConfig& solver, const Viscos
   c.publish_rate = defaults.publish_rate;  // only the top-level values of the defaults are set
   c.real_time_factor = defaults.real_time_factor;
   c.max_points = defaults.max_points;
+  c.surface_rate = defaults.surface_rate;
   fillReconfigureGroups(c);
   return c;
 }

@@ -29,8 +29,8 @@ const std::set<std::string>& nodeKeys()
 {
   static const std::set<std::string> keys = {
       "scene_file", "robot_description_param", "fixed_frame", "links", "container_links", "free_links",
-      "real_time_factor", "publish_rate", "max_points", "tf_delay", "tf_wait_timeout", "stop_after", "threads",
-      "publish_boundary", "wrench_window",
+      "real_time_factor", "publish_rate", "surface_rate", "max_points", "tf_delay", "tf_wait_timeout", "stop_after",
+      "threads", "publish_boundary", "wrench_window",
       // dynamic_reconfigure (cfg/FluidSim.cfg)
       "density_error", "divergence_error", "min_iterations", "max_iterations", "warm_start", "viscosity_model",
       "viscosity_coefficient", "boundary_viscosity", "groups"};
@@ -68,6 +68,7 @@ void checkNodeOptions(const NodeOptions& opt, const std::string& ns)
   if (opt.fixed_frame.empty()) throw StartupError("parameter " + ns + "/fixed_frame: must not be empty");
   if (!realTimeFactorOk(opt.real_time_factor)) bad("real_time_factor", opt.real_time_factor, kRealTimeFactorRange);
   range("publish_rate", opt.publish_rate, ranges::kMinPublishRate, ranges::kMaxPublishRate, "Hz");
+  range("surface_rate", opt.surface_rate, 0.0, ranges::kMaxSurfaceRate, "Hz (0 = off)");
   range("max_points", opt.max_points, 0, ranges::kMaxPoints, "(0 = all)");
   range("tf_delay", opt.tf_delay, 0.0, ranges::kMaxTfDelay, "s");
   range("tf_wait_timeout", opt.tf_wait_timeout, 0.0, ranges::kMaxTfWaitTimeout, "s (0 = wait for ever)");
@@ -100,6 +101,12 @@ std::vector<std::string> checkReconfigure(fluid_sim::FluidSimConfig& requested,
            "must be in [" + number(ranges::kMinPublishRate) + ", " + number(ranges::kMaxPublishRate) + "] Hz",
            current.publish_rate);
     requested.publish_rate = current.publish_rate;
+  }
+  if (!(requested.surface_rate >= 0.0 && requested.surface_rate <= ranges::kMaxSurfaceRate))
+  {
+    refuse("surface_rate", requested.surface_rate,
+           "must be in [0, " + number(ranges::kMaxSurfaceRate) + "] Hz (0 = off)", current.surface_rate);
+    requested.surface_rate = current.surface_rate;
   }
   if (requested.max_points < 0 || requested.max_points > ranges::kMaxPoints)
   {
@@ -405,6 +412,7 @@ NodeOptions readNodeOptions(const NodeParameters& params)
   r.read("container_links", opt.container_links);
   r.read("real_time_factor", opt.real_time_factor);
   r.read("publish_rate", opt.publish_rate);
+  r.read("surface_rate", opt.surface_rate);
   r.read("max_points", opt.max_points);
   r.read("tf_delay", opt.tf_delay);
   r.read("tf_wait_timeout", opt.tf_wait_timeout);

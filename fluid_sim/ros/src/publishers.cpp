@@ -111,6 +111,7 @@ void Publishers::advertise(ros::NodeHandle& nh, const std::vector<BodyTopic>& bo
   pub_boundary_ = nh.advertise<sensor_msgs::PointCloud2>("boundary_particles", 1, true);
   pub_wrenches_ = nh.advertise<fluid_msgs::ContactWrenchArray>("contact_wrenches", 10);
   pub_stats_ = nh.advertise<fluid_msgs::SolverStats>("stats", 10);
+  surface_.advertise(nh, sim.scene().spacing);
   bodies_ = bodies;
   for (const BodyTopic& b : bodies_)
     pub_link_wrench_.push_back(nh.advertise<geometry_msgs::WrenchStamped>(b.topic, 10));
@@ -170,12 +171,14 @@ void Publishers::start()
     runGuarded(
         "publisher", [this] { run(); }, on_failure_);
   });
+  surface_.start(on_failure_);
 }
 
 void Publishers::requestStop()
 {
   stopping_ = true;
   cv_.notify_all();
+  surface_.requestStop();
 }
 
 void Publishers::join()
@@ -186,6 +189,7 @@ void Publishers::join()
   }
   cv_.notify_all();
   if (thread_.joinable()) thread_.join();
+  surface_.join();
 }
 
 void Publishers::run()
@@ -210,6 +214,7 @@ void Publishers::run()
       fillParticleCloud(f.fluid, max_points_, *cloud);
       pub_particles_.publish(cloud);
     }
+    surface_.offer(f.stamp, f.fluid.positions);  // when one is due: a copy of the positions, nothing more
     if (f.boundary_valid)
     {
       boost::shared_ptr<sensor_msgs::PointCloud2> cloud(new sensor_msgs::PointCloud2);

@@ -24,6 +24,7 @@ void Services::advertise(ros::NodeHandle& nh, ros::NodeHandle& pnh, const NodeOp
   cfg.publish_rate = opt.publish_rate;
   cfg.real_time_factor = opt.real_time_factor;
   cfg.max_points = opt.max_points;
+  cfg.surface_rate = opt.surface_rate;
   fillReconfigureGroups(cfg);
   current_ = cfg;
   reconfigure_->updateConfig(cfg);
@@ -76,6 +77,7 @@ void Services::onReconfigure(fluid_sim::FluidSimConfig& config)
   for (const std::string& w : checkReconfigure(config, current_)) ROS_WARN("%s", w.c_str());
   current_ = config;
   publishers_.setMaxPoints(static_cast<std::size_t>(std::max(0, config.max_points)));
+  publishers_.setSurfaceRate(config.surface_rate);
   loop_.reconfigure(config);
 }
 

@@ -11,6 +11,7 @@
 #include <geometry_msgs/TransformStamped.h>
 #include <geometry_msgs/Wrench.h>
 #include <sensor_msgs/PointCloud2.h>
+#include <visualization_msgs/Marker.h>
 
 #include "fluid_msgs/ContactWrench.h"
 #include "fluid_msgs/FreeBody.h"
@@ -22,6 +23,7 @@
 #include "fluid_sim/core/measurements.h"
 #include "fluid_sim/core/scene_config.h"
 #include "fluid_sim/core/simulation.h"
+#include "fluid_sim/core/surface.h"
 #include "fluid_sim/core/types.h"
 
 namespace fluid_sim
@@ -54,6 +56,13 @@ void fillParticleCloud(const FluidSnapshot& fluid, std::size_t max_points, senso
 void fillBoundaryCloud(const std::vector<Vec3>& positions, const std::vector<Real>& pressures,
                        const std::vector<std::pair<std::size_t, std::size_t>>& body_ranges,
                        sensor_msgs::PointCloud2& cloud);
+
+/// Fills `marker` (header left to the caller) with the free surface `mesh`: a TRIANGLE_LIST,
+/// namespace "surface", id 0, three points (m, the mesh's frame) per triangle in the mesh's
+/// counter-clockwise order (rviz lights each triangle by the normal that order gives, outward),
+/// identity pose, unit scale, water blue. An empty mesh gives action DELETE (rviz then removes
+/// the last surface) and no points.
+void fillSurfaceMarker(const SurfaceMesh& mesh, visualization_msgs::Marker& marker);
 
 /// Force (N) and torque (N m) as a message, axes as given.
 geometry_msgs::Wrench toWrench(const Vec3d& force, const Vec3d& torque);
@@ -92,7 +101,8 @@ fluid_msgs::SolverStats toSolverStats(const StepReport& report, const Simulation
                                       bool paused, const std::string& status);
 
 /// The dynamic_reconfigure solver and viscosity settings with the values of `solver` and
-/// `viscosity`; the node group (publish_rate, real_time_factor, max_points) is left to the caller.
+/// `viscosity`; the node group (publish_rate, real_time_factor, max_points, surface_rate) is left to
+/// the caller.
 /// The node group starts at the .cfg defaults; call fillReconfigureGroups() after changing it.
 fluid_sim::FluidSimConfig toReconfigure(const SolverConfig& solver, const ViscosityConfig& viscosity);
 

@@ -36,6 +36,7 @@ struct NodeOptions
   std::vector<FreeLinkOption> free_links;    // links that are free bodies, by link name
   double real_time_factor = 1.0;             // 1 (simulated s per ROS s); 1 = tf-coupled, 0 = as fast as it can
   double publish_rate = 30.0;                // Hz
+  double surface_rate = 0.0;                 // Hz, free-surface meshes on `surface`; 0 = off
   int max_points = 0;                        // points, particles cloud size limit; 0 = all
   double tf_delay = 0.1;                     // s the simulated instant trails ROS time (rtf 1)
   double tf_wait_timeout = 0.0;              // s to wait for link tf at start; 0 = for ever
@@ -54,6 +55,7 @@ constexpr double kMinRealTimeFactor = 1e-3;  // besides 0 (as fast as it can)
 constexpr double kMaxRealTimeFactor = 100.0;
 constexpr double kMinPublishRate = 0.1;  // Hz
 constexpr double kMaxPublishRate = 1000.0;
+constexpr double kMaxSurfaceRate = 100.0;  // Hz (besides 0: off); a mesh takes milliseconds to tens of them
 constexpr int kMaxPoints = 100000000;
 constexpr double kMaxTfDelay = 30.0;           // s
 constexpr double kMaxTfWaitTimeout = 86400.0;  // s

@@ -3,7 +3,8 @@
 // wrench/<body>, free_bodies, stats, and the scene's instruments: regions/<region>, probes) and of the scene bodies'
 // and free bodies' tf frames, and their thread. The solver thread fills a Frame between steps and hands it over; the
 // publisher thread turns it into messages (through the converter, messages.h). A slow publisher drops frames; it never
-// blocks the solver.
+// blocks the solver. The free surface (`surface`) is made from the frames' positions in a thread of its own
+// (surface_publisher.h), at its own rate.
 
 #include <atomic>
 #include <condition_variable>
@@ -32,6 +33,7 @@
 #include "fluid_sim/ros/messages.h"
 #include "fluid_sim/ros/node_parameters.h"
 #include "fluid_sim/ros/ros_names.h"
+#include "fluid_sim/ros/surface_publisher.h"
 
 namespace fluid_sim
 {
@@ -139,13 +141,20 @@ public:
   /// expect), with one wrench topic per body, one regions/<name> topic per region of the scene
   /// and, for a scene with probes or a spill key, the probes and spill topics, free_bodies for a scene with free
   /// bodies, and publishes the frames of the scene bodies that do not move on /tf_static (their poses in `sim`).
-  /// Moving scene bodies and free bodies (scene bodies or links) go on /tf with each frame.
+  /// Moving scene bodies and free bodies (scene bodies or links) go on /tf with each frame. `surface` is advertised
+  /// whatever ~surface_rate (see SurfacePublisher).
   void advertise(ros::NodeHandle& nh, const std::vector<BodyTopic>& bodies, const Simulation& sim);
 
   /// Most points in the particles cloud (0 = all); may change while running.
   void setMaxPoints(std::size_t max_points)
   {
     max_points_ = max_points;
+  }
+
+  /// Free-surface meshes per second (Hz; 0 = off); may change while running.
+  void setSurfaceRate(double hz)
+  {
+    surface_.setRate(hz);
   }
 
   /// The frame the solver thread fills (its boundary_valid is false: set it with the cloud).
@@ -163,11 +172,12 @@ public:
     pub_stats_.publish(stats);
   }
 
-  /// Starts the publisher thread.
+  /// Starts the publisher thread and the surface thread.
   void start();
-  /// Tells the publisher thread to end once it has no frame left.
+  /// Tells the publisher thread to end once it has no frame left, the surface thread after the
+  /// surface it is making.
   void requestStop();
-  /// Waits for the publisher thread to end (after requestStop, once no more frames come).
+  /// Waits for both threads to end (after requestStop, once no more frames come).
   void join();
 
 private:
@@ -186,6 +196,7 @@ private:
   std::vector<BodyTopic> bodies_;                // per body: topic and wrench frame
   std::unique_ptr<tf2_ros::TransformBroadcaster> tf_;
   std::unique_ptr<tf2_ros::StaticTransformBroadcaster> tf_static_;
+  SurfacePublisher surface_{opt_};  // `surface`, offered the positions of every frame published
 
   // The solver fills `back_` and swaps it with `pending_`; the publisher swaps `pending_` with
   // `front_` and publishes from it.

@@ -1,7 +1,7 @@
 #pragma once
 // The node's services (reset, pause, step) and its dynamic_reconfigure server: thin ROS
 // adapters. The commands themselves are carried out by the solver loop between two steps;
-// max_points goes to the publishers.
+// max_points and surface_rate go to the publishers.
 
 #include <memory>
 #include <mutex>
