@@ -160,7 +160,7 @@ TEST(Measurements, ProbeReadsHydrostaticPressureAndAirIsDry)
   SceneConfig s = column();
   // On the column's axis at depths 5-30 cm below the 0.4 m surface (the first two layers are the
   // top 4 cm), one in the air above it and one on the dry tank wall above the water.
-  const std::vector<double> depths = {0.05, 0.1, 0.2, 0.3};  // m
+  const std::vector<double> depths = {0.05, 0.08, 0.1, 0.2, 0.3};  // m
   for (std::size_t k = 0; k < depths.size(); ++k)
     s.probes.push_back(probe("d" + std::to_string(k), Vec3d(0.1, 0.1, 0.4 - depths[k])));
   s.probes.push_back(probe("air", Vec3d(0.1, 0.1, 0.5)));
@@ -213,7 +213,10 @@ TEST(Measurements, ProbeReadsHydrostaticPressureAndAirIsDry)
     // neighbours' pressures in place of the Shepard mean read 0.963 in the same float run (1.003
     // in double); the particles' own pressures there are low, with the density at the probe 1.4 %
     // above rho0 (a denser packing, whose irregular gradient sum, Eq. 1, balances gravity with
-    // less pressure). It is printed, not held to 1 % (README, Instruments).
+    // less pressure). Nor the top layers alone: from 5 to 9 cm, in 1 cm steps, the deficit was
+    // 12.6, 11.8, 16.5, 12.7 and 9.2 Pa in float (-1, -3, +8, +16 and +8 Pa in double), a pattern
+    // of the packing some centimetres long, about rho0 g s / 10 in size; 1 % of rho0 g d is that
+    // much only from 5-9 spacings down. Printed above 10 cm, not held to 1 % (README, Instruments).
     if (depths[k] < 0.1) continue;
     EXPECT_NEAR(mean[k] / exact[k], 1.0, 0.01) << "depth " << depths[k] << " m";
     // Inside the water the SPH sum at a point is rest density within 1 %: 1.003-1.007 here (at
