@@ -1268,7 +1268,11 @@ def cube_sets(method, quick):
 def case7(S):
     side = 0.1
     archimedes = RHO0 * G * side ** 3
-    duration = 1.0 if S.quick else 2.0
+    # Full: 5 s, the force averaged over the last 0.5 s. With 2 s (0.2 s averaged) MLS read 0.992,
+    # 0.964 and 0.973 in the native, haswell and portable builds: the water still sloshed (kinetic
+    # energy 1e-3 J at 2 s, a fortieth of its peak, halving every 0.3-0.4 s), and each build's
+    # window caught another phase of it.
+    duration = 1.0 if S.quick else 5.0
     builds = [("this build", S.runner)] + list(S.opts.extra_runner or [])
     specs, keys = [], []
     for label, runner in builds:
@@ -1413,13 +1417,18 @@ def case8(S):
     spacings = [0.02] if q else [0.02, 0.015, 0.01]
     densities = [500] if q else [300, 500, 800]
     duration = 2.0
+    # Floating at rest is measured once settled: over the second half of a 4 s run (full). Over
+    # 1-2 s of a 2 s run, as first written, the flat box at 800 kg/m^3 and 2 cm was still heaving
+    # (11.5 mm range, a quarter of its draft) and its draft still creeping up (0.950 there; 0.970
+    # / 0.973 / 0.976 averaged from 2 / 3 / 4 s of a 5 s run). The quick version keeps 2 s.
+    rest_duration = duration if q else 4.0
     specs, keys = [], []
     for shape in ("box", "sphere"):
         for sp in spacings:
             for rho in densities:
                 keys.append(("rest", shape, sp, rho))
                 specs.append(("case8/%s_s%g_rho%d" % (shape, sp, rho), "floating_%s.yaml" % shape,
-                              float_sets(shape, sp, rho), duration))
+                              float_sets(shape, sp, rho), rest_duration))
     heave_spacings = [0.02] if q else [0.02, 0.015, 0.01]
     for sp in heave_spacings:
         keys.append(("heave", "box", sp, 500))
@@ -1435,7 +1444,7 @@ def case8(S):
     for key in [k for k in keys if k[0] == "rest"]:
         _, shape, sp, rho = key
         run = runs[key]
-        draft, heave = float_draft(run, shape, duration - 1.0)
+        draft, heave = float_draft(run, shape, rest_duration / 2)
         expected = archimedes_draft(shape, rho)
         momentum = float("nan")
         if run.ok:
@@ -1522,10 +1531,11 @@ def case8(S):
     md = ["## 8. Free bodies\n"]
     md.append("Floating at rest: a flat box 16 x 16 x 6 cm and a sphere of radius 6 cm in a 0.3 x 0.3 m tank of "
               "water 0.15 m deep (`floating_box.yaml`, `floating_sphere.yaml`), released with their draft at "
-              "Archimedes' value; MLS, dt 1 ms, XSPH 0.01, %g s; the draft is averaged over the last second from "
+              "Archimedes' value; MLS, dt 1 ms, XSPH 0.01, %g s; the draft is averaged over the second half of the run "
+              "(once settled: the heave range is over the same span) from "
               "bodies.csv (every 10 ms), the level from the water's volume plus the submerged part. Below 6 spacings "
               "across or where the draft is under a spacing or two, the draft is not resolved (docs/method_notes.md, "
-              "Free bodies); the check is held at 6 spacings and more, from 500 kg/m^3.\n" % duration)
+              "Free bodies); the check is held at 6 spacings and more, from 500 kg/m^3.\n" % rest_duration)
     md.append(md_table(["shape", "spacing", "across", "density", "status", "Archimedes' draft", "draft",
                         "draft / Archimedes", "heave range", "tank / weight"],
                        [[r[0], "%g cm" % (100 * r[1]), r[2], r[3], r[4], "%.2f cm" % (100 * r[5]),
