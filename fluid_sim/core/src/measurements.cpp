@@ -243,6 +243,14 @@ MeasurementReport Measurements::evaluate(const Simulation& sim)
   return out;
 }
 
+MeasurementReport Measurements::evaluateProbes(const Simulation& sim)
+{
+  MeasurementReport out;
+  out.time = sim.time();
+  if (!probes_.empty()) measureProbes(sim, out);
+  return out;
+}
+
 void Measurements::measureRegions(const Simulation& sim, MeasurementReport& out) const
 {
   std::vector<RegionTest> tests;

@@ -30,7 +30,7 @@ const std::set<std::string>& nodeKeys()
   static const std::set<std::string> keys = {
       "scene_file", "robot_description_param", "fixed_frame", "links", "container_links", "free_links",
       "real_time_factor", "publish_rate", "surface_rate", "max_points", "tf_delay", "tf_wait_timeout", "stop_after",
-      "threads", "publish_boundary", "wrench_window",
+      "threads", "publish_boundary", "wrench_window", "probe_window",
       // dynamic_reconfigure (cfg/FluidSim.cfg)
       "density_error", "divergence_error", "min_iterations", "max_iterations", "warm_start", "viscosity_model",
       "viscosity_coefficient", "boundary_viscosity", "groups"};
@@ -75,6 +75,7 @@ void checkNodeOptions(const NodeOptions& opt, const std::string& ns)
   range("stop_after", opt.stop_after, 0.0, ranges::kMaxStopAfter, "s (0 = run until shut down)");
   range("threads", opt.threads, 0, ranges::kMaxThreads, "(0 = all cores)");
   range("wrench_window", opt.wrench_window, 0.0, ranges::kMaxWrenchWindow, "s (0 = the steps since the last message)");
+  range("probe_window", opt.probe_window, 0.0, ranges::kMaxProbeWindow, "s (0 = the state of each message's step)");
 }
 
 std::vector<std::string> checkReconfigure(fluid_sim::FluidSimConfig& requested,
@@ -420,6 +421,7 @@ NodeOptions readNodeOptions(const NodeParameters& params)
   r.read("threads", opt.threads);
   r.read("publish_boundary", opt.publish_boundary);
   r.read("wrench_window", opt.wrench_window);
+  r.read("probe_window", opt.probe_window);
   if (params.values.getType() == XmlRpc::XmlRpcValue::TypeStruct && params.values.hasMember("free_links"))
   {
     auto& values = const_cast<XmlRpc::XmlRpcValue&>(params.values);  // accessors are non-const

@@ -15,8 +15,6 @@ void WrenchMeans::reset(std::size_t bodies)
 {
   bodies_ = bodies;
   steps_.clear();
-  held_time_ = 0.0;
-  since_take_ = 0;
 }
 
 void WrenchMeans::add(const Simulation& sim, double dt)
@@ -36,8 +34,7 @@ void WrenchMeans::add(const Simulation& sim, double dt)
 void WrenchMeans::add(double dt, const std::vector<Vec3d>& force, const std::vector<Vec3d>& torque,
                       const std::vector<double>& max_pressure)
 {
-  Step st;
-  st.dt = dt;
+  Wrenches st;
   st.force.assign(bodies_, Vec3d::Zero());
   st.torque.assign(bodies_, Vec3d::Zero());
   st.max_pressure.assign(bodies_, 0.0);
@@ -47,53 +44,70 @@ void WrenchMeans::add(double dt, const std::vector<Vec3d>& force, const std::vec
     if (k < torque.size()) st.torque[k] = torque[k];
     if (k < max_pressure.size()) st.max_pressure[k] = max_pressure[k];
   }
-  steps_.push_back(std::move(st));
-  held_time_ += dt;
-  ++since_take_;
-  dropOld();
-}
-
-void WrenchMeans::dropOld()
-{
-  // A step is needed while the newer ones cover less than the window, or while it has not been
-  // in a message yet.
-  while (steps_.size() > since_take_ && held_time_ - steps_.front().dt >= window_)
-  {
-    held_time_ -= steps_.front().dt;
-    steps_.pop_front();
-  }
+  steps_.add(dt, std::move(st));
 }
 
 void WrenchMeans::take(const Simulation& sim, std::vector<fluid_msgs::ContactWrench>& out)
 {
   out.resize(sim.numBodies());
-  // The span averaged: the window, or the steps since the last message if they cover more.
-  double since = 0.0;
-  for (std::size_t i = steps_.size() - since_take_; i < steps_.size(); ++i) since += steps_[i].dt;
-  const double span = std::max(window_, since);
   std::vector<Vec3d> force(bodies_, Vec3d::Zero()), torque(bodies_, Vec3d::Zero());
   std::vector<double> max_pressure(bodies_, 0.0);
-  double covered = 0.0;  // s
-  for (auto it = steps_.rbegin(); it != steps_.rend() && covered < span; ++it)
-  {
-    // The oldest step counts for the part of its dt inside the span.
-    const double w = std::min(it->dt, span - covered);
+  const double covered = steps_.take([&](double w, const Wrenches& st) {
     for (std::size_t k = 0; k < bodies_; ++k)
     {
-      force[k] += w * it->force[k];
-      torque[k] += w * it->torque[k];
-      max_pressure[k] = std::max(max_pressure[k], it->max_pressure[k]);
+      force[k] += w * st.force[k];
+      torque[k] += w * st.torque[k];
+      max_pressure[k] = std::max(max_pressure[k], st.max_pressure[k]);
     }
-    covered += w;
-  }
+  });
   for (std::size_t k = 0; k < sim.numBodies(); ++k)
   {
     const BodyInfo b = sim.body(k);
     out[k] = covered > 0.0 && k < bodies_ ? toContactWrench(b, force[k] / covered, torque[k] / covered, max_pressure[k])
                                           : toContactWrench(b, b.force_body, b.torque_body, b.max_pressure);
   }
-  since_take_ = 0;
-  dropOld();
+}
+
+// ------------------------------------------------------------------------------ ProbeMeans
+void ProbeMeans::add(double dt, const std::vector<ProbeMeasurement>& probes)
+{
+  std::vector<Reading> readings(probes.size());
+  for (std::size_t k = 0; k < probes.size(); ++k)
+  {
+    const ProbeMeasurement& p = probes[k];
+    readings[k] = {p.pressure, p.density, p.velocity, p.fluid_support, p.wall_support};
+  }
+  last_ = probes;
+  steps_.add(dt, std::move(readings));
+}
+
+std::vector<ProbeMeasurement> ProbeMeans::take()
+{
+  std::vector<Reading> sum(last_.size());  // each field times s
+  const double covered = steps_.take([&](double w, const std::vector<Reading>& readings) {
+    for (std::size_t k = 0; k < sum.size() && k < readings.size(); ++k)
+    {
+      sum[k].pressure += w * readings[k].pressure;
+      sum[k].density += w * readings[k].density;
+      sum[k].velocity += w * readings[k].velocity;
+      sum[k].fluid_support += w * readings[k].fluid_support;
+      sum[k].wall_support += w * readings[k].wall_support;
+    }
+  });
+  std::vector<ProbeMeasurement> mean = last_;
+  if (!(covered > 0.0)) return mean;  // no step since the reset: the newest readings as they are
+  for (std::size_t k = 0; k < mean.size(); ++k)
+  {
+    ProbeMeasurement& m = mean[k];
+    m.fluid_support = sum[k].fluid_support / covered;
+    m.wall_support = sum[k].wall_support / covered;
+    m.density = sum[k].density / covered;
+    m.wet = wetness(m.fluid_support, m.wall_support);
+    // A mean that is dry reads as a dry step does.
+    m.pressure = m.wet ? sum[k].pressure / covered : 0.0;
+    m.velocity = m.wet ? Vec3d(sum[k].velocity / covered) : Vec3d::Zero();
+  }
+  return mean;
 }
 
 // ------------------------------------------------------------------------------ Publishers

@@ -117,6 +117,8 @@ void SolverLoop::build(const std::map<std::string, Pose>& poses)
   }
   wrench_means_.reset(nb);
   wrench_means_.setWindow(opt_.wrench_window);
+  probe_means_.reset();
+  probe_means_.setWindow(opt_.probe_window);
   sim_time_ = sim_->time();  // build() runs before start() or under cmd_mutex_ (reset)
   boundary_dirty_ = true;
   last_frame_sim_ = -1.0;
@@ -531,6 +533,10 @@ void SolverLoop::afterStep(const StepReport& rep, double paced_rtf)
   sum_step_ms_ += rep.ms_total;
   last_report_ = rep;
   wrench_means_.add(*sim_, rep.dt);
+  // Probes averaged over ~probe_window are read after every step (one counting sort of the
+  // particles around the probes: 0.06 ms for 2,000 particles, README, Instruments); without a
+  // window, once per frame below.
+  if (probeWindowed()) probe_means_.add(rep.dt, measurements_->evaluateProbes(*sim_).probes);
 
   const double wall = std::chrono::duration<double>(WallClock::now() - rtf_wall0_).count();
   if (wall >= 1.0)
@@ -602,7 +608,8 @@ void SolverLoop::publishFrame(const StepReport& rep, double paced_rtf)
   f.spill_valid = false;
   if (measurements_)
   {
-    const MeasurementReport m = measurements_->evaluate(*sim_);
+    MeasurementReport m = measurements_->evaluate(*sim_);
+    if (probeWindowed()) m.probes = probe_means_.take();
     for (const RegionMeasurement& r : m.regions)
     {
       f.regions.push_back(toRegionState(r));

@@ -126,6 +126,9 @@ public:
   /// against every region), and for the probes a counting sort of the fluid and boundary
   /// particles into a grid around them.
   MeasurementReport evaluate(const Simulation& sim);
+  /// The probes alone (report.probes as evaluate() gives them; time set, regions and spill left
+  /// empty): what a mean of the probes over many steps needs each step.
+  MeasurementReport evaluateProbes(const Simulation& sim);
 
   /// The geometric volume of region k, m^3.
   double capacity(std::size_t k) const

@@ -44,6 +44,7 @@ struct NodeOptions
   int threads = 0;                           // solver threads; 0 = all cores
   bool publish_boundary = true;
   double wrench_window = 0.1;  // s of simulated time each published wrench averages
+  double probe_window = 0.1;   // s of simulated time each published probe reading averages
 };
 
 /// The checked ranges of the node's numeric parameters (README "The ROS node"). Values outside
@@ -62,6 +63,7 @@ constexpr double kMaxTfWaitTimeout = 86400.0;  // s
 constexpr double kMaxStopAfter = 1.0e6;        // s of simulated time
 constexpr int kMaxThreads = 1024;
 constexpr double kMaxWrenchWindow = 10.0;  // s of simulated time
+constexpr double kMaxProbeWindow = 10.0;   // s of simulated time
 }  // namespace ranges
 
 /// Checks the ranges of `opt`; throws StartupError naming the parameter (under namespace `ns`)

@@ -6,6 +6,7 @@
 // blocks the solver. The free surface (`surface`) is made from the frames' positions in a thread of its own
 // (surface_publisher.h), at its own rate.
 
+#include <algorithm>
 #include <atomic>
 #include <condition_variable>
 #include <deque>
@@ -29,6 +30,7 @@
 #include "fluid_msgs/SinkArray.h"
 #include "fluid_msgs/SolverStats.h"
 #include "fluid_msgs/Spill.h"
+#include "fluid_sim/core/measurements.h"
 #include "fluid_sim/core/simulation.h"
 #include "fluid_sim/ros/messages.h"
 #include "fluid_sim/ros/node_parameters.h"
@@ -61,15 +63,97 @@ struct Frame
   fluid_msgs::SinkArray sinks;  // what each sink drained so far; no sinks for a scene without any
 };
 
+/// The steps a boxcar mean over a window of simulated time uses (WrenchMeans, ProbeMeans). Each
+/// step's sample acts over its dt: a mean is time-weighted, and the oldest step in the window
+/// counts for the part of its dt inside it. A mean never covers less than the steps since the
+/// previous one, so a window shorter than the frame interval (0 included) gives the mean since
+/// the last message. Holds only the steps the next mean can need.
+template <class Sample>
+class StepWindow
+{
+public:
+  /// Forgets every step.
+  void clear()
+  {
+    steps_.clear();
+    held_time_ = 0.0;
+    since_take_ = 0;
+  }
+  /// The window, s of simulated time (>= 0); takes effect at the next mean.
+  void setWindow(double seconds)
+  {
+    window_ = seconds;
+  }
+  double window() const
+  {
+    return window_;
+  }
+  /// Steps held.
+  std::size_t size() const
+  {
+    return steps_.size();
+  }
+
+  /// The sample of a step of length `dt` (s) just taken.
+  void add(double dt, Sample sample)
+  {
+    steps_.push_back({dt, std::move(sample)});
+    held_time_ += dt;
+    ++since_take_;
+    dropOld();
+  }
+
+  /// Calls visit(weight, sample) for every step of the mean, newest first, the weight in s (the
+  /// part of the step's dt inside the span averaged); returns their sum, the span covered (0
+  /// without steps). The next mean starts from here.
+  template <class Visit>
+  double take(Visit&& visit)
+  {
+    // The span averaged: the window, or the steps since the last mean if they cover more.
+    double since = 0.0;
+    for (std::size_t i = steps_.size() - since_take_; i < steps_.size(); ++i) since += steps_[i].dt;
+    const double span = std::max(window_, since);
+    double covered = 0.0;  // s
+    for (auto it = steps_.rbegin(); it != steps_.rend() && covered < span; ++it)
+    {
+      const double w = std::min(it->dt, span - covered);
+      visit(w, it->sample);
+      covered += w;
+    }
+    since_take_ = 0;
+    dropOld();
+    return covered;
+  }
+
+private:
+  struct Step
+  {
+    double dt = 0.0;  // s
+    Sample sample;
+  };
+  void dropOld()
+  {
+    // A step is needed while the newer ones cover less than the window, or while it has not been
+    // in a mean yet.
+    while (steps_.size() > since_take_ && held_time_ - steps_.front().dt >= window_)
+    {
+      held_time_ -= steps_.front().dt;
+      steps_.pop_front();
+    }
+  }
+
+  double window_ = 0.0;         // s of simulated time
+  std::deque<Step> steps_;      // oldest first
+  double held_time_ = 0.0;      // s, sum of steps_' dt
+  std::size_t since_take_ = 0;  // steps added since the last mean (always kept)
+};
+
 /// The wrenches published: per body, the mean over a window of simulated time (body frame). One
 /// step's pressure force jitters by about a third of its mean on a submerged body, so a message
 /// that averaged only the few steps since the last one (a node running fast, publishing often)
 /// was not a force a controller could use; the window (`~wrench_window`, s) makes each message
-/// the mean over the same span of simulated time at any real-time factor and publish rate. Each
-/// step's wrench acts over its dt: the mean is time-weighted, and the oldest step in the window
-/// counts for the part of its dt inside it (a boxcar filter in simulated time). A message never
-/// averages less than the steps since the previous one, so a window shorter than the frame
-/// interval (0 included) gives the mean since the last message.
+/// the mean over the same span of simulated time at any real-time factor and publish rate (a
+/// StepWindow; the largest boundary pressure is the largest over the span, not a mean).
 class WrenchMeans
 {
 public:
@@ -79,11 +163,11 @@ public:
   /// The window, s of simulated time (>= 0); takes effect at the next message.
   void setWindow(double seconds)
   {
-    window_ = seconds;
+    steps_.setWindow(seconds);
   }
   double window() const
   {
-    return window_;
+    return steps_.window();
   }
 
   /// Adds the wrenches of the step of length `dt` (s) just taken by `sim`.
@@ -104,19 +188,64 @@ public:
   }
 
 private:
-  struct Step
+  struct Wrenches
   {
-    double dt = 0.0;                   // s
     std::vector<Vec3d> force, torque;  // N, N m, body frame, per body
     std::vector<double> max_pressure;  // Pa, per body
   };
-  void dropOld();
 
-  double window_ = 0.0;  // s of simulated time
   std::size_t bodies_ = 0;
-  std::deque<Step> steps_;      // oldest first
-  double held_time_ = 0.0;      // s, sum of steps_' dt
-  std::size_t since_take_ = 0;  // steps added since the last message (always kept)
+  StepWindow<Wrenches> steps_;
+};
+
+/// The probes published: each reading the mean over a window of simulated time
+/// (`~probe_window`, s), as the wrenches are (a StepWindow). One step's pressure at a probe in
+/// water that has not come to rest swings by tens of percent from step to step (README,
+/// Instruments), so a single step's reading was no figure to act on. Pressure, density,
+/// velocity and both supports are time-weighted means of what the probe read each step (a dry
+/// step reads pressure and velocity 0); the mean is wet by the wetness rule (core wetness())
+/// applied to the mean supports, and a mean that is dry reads pressure and velocity 0, as a dry
+/// step does.
+class ProbeMeans
+{
+public:
+  /// Forgets every step.
+  void reset()
+  {
+    steps_.clear();
+    last_.clear();
+  }
+  /// The window, s of simulated time (>= 0); takes effect at the next message.
+  void setWindow(double seconds)
+  {
+    steps_.setWindow(seconds);
+  }
+  double window() const
+  {
+    return steps_.window();
+  }
+  /// The probes as read after a step of length `dt` (s), in the scene's order.
+  void add(double dt, const std::vector<ProbeMeasurement>& probes);
+  /// The means, one per probe (empty if no step was added since the last reset).
+  std::vector<ProbeMeasurement> take();
+  /// Steps held.
+  std::size_t heldSteps() const
+  {
+    return steps_.size();
+  }
+
+private:
+  /// What one probe read in one step (56 B; names and positions are kept once, in `last_`).
+  struct Reading
+  {
+    double pressure = 0.0;           // Pa
+    double density = 0.0;            // kg/m^3
+    Vec3d velocity = Vec3d::Zero();  // m/s
+    double fluid_support = 0.0;      // unit-less
+    double wall_support = 0.0;       // unit-less
+  };
+  std::vector<ProbeMeasurement> last_;  // the newest step's probes (names, positions)
+  StepWindow<std::vector<Reading>> steps_;
 };
 
 class Publishers

@@ -189,8 +189,14 @@ private:
   double last_frame_sim_ = -1.0;  // s, simulated time of the last frame published (-1: none since the build)
   std::vector<std::pair<std::size_t, std::size_t>> body_ranges_;  // boundary particles of each body
   WrenchMeans wrench_means_;
-  // The scene's instruments, measured once per published frame; null for a scene without any.
+  // The scene's instruments, measured once per published frame (the probes after every step when
+  // averaged over ~probe_window); null for a scene without any.
   std::unique_ptr<Measurements> measurements_;
+  ProbeMeans probe_means_;
+  bool probeWindowed() const
+  {
+    return measurements_ && !measurements_->probes().empty() && opt_.probe_window > 0.0;
+  }
   StepReport last_report_;
   // Written by the solver thread under cmd_mutex_ (after each step, on reset), read by the
   // step service under it; the solver thread reads them without the lock.
