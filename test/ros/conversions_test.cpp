@@ -1014,6 +1014,40 @@ boundaries:
   EXPECT_DOUBLE_EQ(m.pose.orientation.w, 1.0);
 }
 
+TEST(Emitters, EachEmitterBecomesAnEntryWithWhatItReleased)
+{
+  // A tank that starts dry and a tap over it, open for the whole run; a second nozzle that opens
+  // only after it.
+  Simulation sim(io::parseScene(R"yaml(
+spacing: 0.02
+domain: {min: [-0.1, -0.1, -0.1], max: [0.3, 0.3, 0.5]}
+fluid: []
+boundaries:
+  - {name: tank, inside: true, box: {min: [0, 0, 0], max: [0.2, 0.2, 0.4]}}
+emitters:
+  - {name: tap, circle: {radius: 0.03}, pose: {xyz: [0.1, 0.1, 0.3]}, direction: [0, 0, -1], speed: 1.0}
+  - {name: later, circle: {radius: 0.03}, pose: {xyz: [0.1, 0.1, 0.2]}, direction: [0, 0, -1], speed: 1.0, start: 10}
+)yaml",
+                                "tap.yaml"));
+  while (sim.time() < 0.1 - 1e-9) ASSERT_FALSE(sim.step().unstable);
+  const fluid_msgs::EmitterArray m = ros_bridge::toEmitterArray(sim.emitterTotals(), ros::Time(3.0), "world");
+  EXPECT_EQ(m.header.stamp, ros::Time(3.0));
+  EXPECT_EQ(m.header.frame_id, "world");
+  ASSERT_EQ(m.emitters.size(), 2u);
+  const fluid_msgs::Emitter& tap = m.emitters[0];
+  EXPECT_EQ(tap.name, "tap");
+  EXPECT_GT(tap.particles, 0u);
+  EXPECT_EQ(tap.particles, sim.numFluidParticles());                   // all the water came from it
+  EXPECT_NEAR(tap.volume, tap.particles * 0.02 * 0.02 * 0.02, 1e-12);  // m^3
+  EXPECT_NEAR(tap.mass, tap.volume * 1000.0, 1e-9);                    // kg
+  EXPECT_DOUBLE_EQ(tap.flow_rate, sim.emitterTotals()[0].flow_rate);   // m^3/s
+  EXPECT_GT(tap.flow_rate, 0.0);
+  EXPECT_FALSE(tap.budget_reached);
+  EXPECT_EQ(m.emitters[1].name, "later");
+  EXPECT_EQ(m.emitters[1].particles, 0u);
+  EXPECT_EQ(m.emitters[1].volume, 0.0);
+}
+
 TEST(Sinks, EachSinkBecomesAnEntryWithItsTotals)
 {
   std::vector<SinkTotal> totals = {{"drain", 12, 12 * 1e-6, 12 * 1e-3}, {"funnel", 0, 0.0, 0.0}};

@@ -34,6 +34,7 @@
 #include <visualization_msgs/Marker.h>
 
 #include "fluid_msgs/ContactWrenchArray.h"
+#include "fluid_msgs/EmitterArray.h"
 #include "fluid_msgs/FreeBodyArray.h"
 #include "fluid_msgs/ProbeArray.h"
 #include "fluid_msgs/RegionState.h"
@@ -287,6 +288,15 @@ TEST(Tank, PublishesRegionAndProbes)
   EXPECT_EQ(sinks->sinks[0].name, "overflow");
   EXPECT_EQ(sinks->sinks[0].particles, 0u);
   EXPECT_EQ(sinks->sinks[0].volume, 0.0);
+  // The tap that opens after the test: published, nothing released, its flow rate given.
+  auto emitters = waitFor<fluid_msgs::EmitterArray>("/fluid_sim/emitters", 10.0);
+  ASSERT_TRUE(emitters) << "no message on /fluid_sim/emitters";
+  EXPECT_EQ(emitters->header.frame_id, "world");
+  ASSERT_EQ(emitters->emitters.size(), 1u);
+  EXPECT_EQ(emitters->emitters[0].name, "tap");
+  EXPECT_EQ(emitters->emitters[0].particles, 0u);
+  EXPECT_EQ(emitters->emitters[0].volume, 0.0);
+  EXPECT_GT(emitters->emitters[0].flow_rate, 0.0);
 
   // Settled (after t = 1.5 s as the wrench test): the floor probe reads rho0 g d, averaged over
   // twenty messages (the water still sloshes a little); the air probe is dry.

@@ -143,6 +143,27 @@ fluid_msgs::RegionState toRegionState(const RegionMeasurement& m)
   return r;
 }
 
+fluid_msgs::EmitterArray toEmitterArray(const std::vector<EmitterTotal>& emitters, const ros::Time& stamp,
+                                        const std::string& frame)
+{
+  fluid_msgs::EmitterArray out;
+  out.header.stamp = stamp;
+  out.header.frame_id = frame;
+  for (const EmitterTotal& e : emitters)
+  {
+    fluid_msgs::Emitter m;
+    m.name = e.name;
+    m.particles = static_cast<std::uint32_t>(e.particles);
+    m.blocked = static_cast<std::uint32_t>(e.blocked);
+    m.volume = e.volume;
+    m.mass = e.mass;
+    m.flow_rate = e.flow_rate;
+    m.budget_reached = e.budget_reached;
+    out.emitters.push_back(m);
+  }
+  return out;
+}
+
 fluid_msgs::SinkArray toSinkArray(const std::vector<SinkTotal>& sinks, const ros::Time& stamp, const std::string& frame)
 {
   fluid_msgs::SinkArray out;

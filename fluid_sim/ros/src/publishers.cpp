@@ -136,6 +136,7 @@ void Publishers::advertise(ros::NodeHandle& nh, const std::vector<BodyTopic>& bo
   if (!sim.scene().probes.empty()) pub_probes_ = nh.advertise<fluid_msgs::ProbeArray>("probes", 10);
   if (sim.scene().spill.enabled) pub_spill_ = nh.advertise<fluid_msgs::Spill>("spill", 10);
   if (!sim.scene().sinks.empty()) pub_sinks_ = nh.advertise<fluid_msgs::SinkArray>("sinks", 10);
+  if (!sim.scene().emitters.empty()) pub_emitters_ = nh.advertise<fluid_msgs::EmitterArray>("emitters", 10);
   if (std::any_of(bodies.begin(), bodies.end(), [](const BodyTopic& b) { return b.free; }))
     pub_free_ = nh.advertise<fluid_msgs::FreeBodyArray>("free_bodies", 10);
 
@@ -259,6 +260,7 @@ void Publishers::run()
     if (pub_probes_ && !f.probes.probes.empty()) pub_probes_.publish(f.probes);
     if (pub_spill_ && f.spill_valid) pub_spill_.publish(f.spill);
     if (pub_sinks_ && !f.sinks.sinks.empty()) pub_sinks_.publish(f.sinks);
+    if (pub_emitters_ && !f.emitters.emitters.empty()) pub_emitters_.publish(f.emitters);
     if (pub_free_ && !f.free_bodies.bodies.empty()) pub_free_.publish(f.free_bodies);
     pub_stats_.publish(f.stats);
   }

@@ -630,6 +630,7 @@ void SolverLoop::publishFrame(const StepReport& rep, double paced_rtf)
     }
   }
   f.sinks = toSinkArray(sim_->sinkTotals(), f.stamp, opt_.fixed_frame);
+  f.emitters = toEmitterArray(sim_->emitterTotals(), f.stamp, opt_.fixed_frame);
   f.stats = toSolverStats(rep, *sim_, rtf_measured_, paused_, last_status_);
   f.stats.header.stamp = f.stamp;
   f.stats.header.frame_id = opt_.fixed_frame;

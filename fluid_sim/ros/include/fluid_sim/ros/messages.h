@@ -14,6 +14,7 @@
 #include <visualization_msgs/Marker.h>
 
 #include "fluid_msgs/ContactWrench.h"
+#include "fluid_msgs/EmitterArray.h"
 #include "fluid_msgs/FreeBody.h"
 #include "fluid_msgs/Probe.h"
 #include "fluid_msgs/RegionState.h"
@@ -83,6 +84,10 @@ fluid_msgs::RegionState toRegionState(const RegionMeasurement& region);
 
 /// A probe's measurement (scene key probes) as a message.
 fluid_msgs::Probe toProbe(const ProbeMeasurement& probe);
+
+/// What each emitter released (Simulation::emitterTotals()), stamped and in `frame`.
+fluid_msgs::EmitterArray toEmitterArray(const std::vector<EmitterTotal>& emitters, const ros::Time& stamp,
+                                        const std::string& frame);
 
 /// What each sink drained (Simulation::sinkTotals()), stamped and in `frame`.
 fluid_msgs::SinkArray toSinkArray(const std::vector<SinkTotal>& sinks, const ros::Time& stamp,

@@ -1,10 +1,10 @@
 #pragma once
 // Publishers of the node's topics (particles, boundary_particles, contact_wrenches,
-// wrench/<body>, free_bodies, stats, and the scene's instruments: regions/<region>, probes) and of the scene bodies'
-// and free bodies' tf frames, and their thread. The solver thread fills a Frame between steps and hands it over; the
-// publisher thread turns it into messages (through the converter, messages.h). A slow publisher drops frames; it never
-// blocks the solver. The free surface (`surface`) is made from the frames' positions in a thread of its own
-// (surface_publisher.h), at its own rate.
+// wrench/<body>, free_bodies, stats, and the scene's instruments: regions/<region>, probes, spill, sinks, emitters) and
+// of the scene bodies' and free bodies' tf frames, and their thread. The solver thread fills a Frame between steps and
+// hands it over; the publisher thread turns it into messages (through the converter, messages.h). A slow publisher
+// drops frames; it never blocks the solver. The free surface (`surface`) is made from the frames' positions in a thread
+// of its own (surface_publisher.h), at its own rate.
 
 #include <algorithm>
 #include <atomic>
@@ -24,6 +24,7 @@
 #include <tf2_ros/transform_broadcaster.h>
 
 #include "fluid_msgs/ContactWrenchArray.h"
+#include "fluid_msgs/EmitterArray.h"
 #include "fluid_msgs/FreeBodyArray.h"
 #include "fluid_msgs/ProbeArray.h"
 #include "fluid_msgs/RegionState.h"
@@ -60,7 +61,8 @@ struct Frame
   fluid_msgs::ProbeArray probes;
   bool spill_valid = false;  // the scene has a spill key
   fluid_msgs::Spill spill;
-  fluid_msgs::SinkArray sinks;  // what each sink drained so far; no sinks for a scene without any
+  fluid_msgs::SinkArray sinks;        // what each sink drained so far; no sinks for a scene without any
+  fluid_msgs::EmitterArray emitters;  // what each emitter released so far; none for a scene without any
 };
 
 /// The steps a boxcar mean over a window of simulated time uses (WrenchMeans, ProbeMeans). Each
@@ -321,6 +323,7 @@ private:
   ros::Publisher pub_probes_;                    // probes, for a scene with probes
   ros::Publisher pub_spill_;                     // spill, for a scene with a spill key
   ros::Publisher pub_sinks_;                     // sinks, for a scene with sinks
+  ros::Publisher pub_emitters_;                  // emitters, for a scene with emitters
   ros::Publisher pub_free_;                      // free_bodies, for a scene with free bodies
   std::vector<BodyTopic> bodies_;                // per body: topic and wrench frame
   std::unique_ptr<tf2_ros::TransformBroadcaster> tf_;
