@@ -233,13 +233,13 @@ bool Measurements::empty() const
   return regions_.empty() && probes_.empty() && !spill_.enabled;
 }
 
-MeasurementReport Measurements::evaluate(const Simulation& sim)
+MeasurementReport Measurements::evaluate(const Simulation& sim, bool probes)
 {
   MeasurementReport out;
   out.time = sim.time();
   if (empty()) return out;
   if (!regions_.empty() || spill_.enabled) measureRegions(sim, out);
-  if (!probes_.empty()) measureProbes(sim, out);
+  if (probes && !probes_.empty()) measureProbes(sim, out);
   return out;
 }
 

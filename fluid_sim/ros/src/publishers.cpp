@@ -77,7 +77,8 @@ void ProbeMeans::add(double dt, const std::vector<ProbeMeasurement>& probes)
     const ProbeMeasurement& p = probes[k];
     readings[k] = {p.pressure, p.density, p.velocity, p.fluid_support, p.wall_support};
   }
-  last_ = probes;
+  // Names and positions are the scene's: copied when the probes first come, not every step.
+  if (last_.size() != probes.size()) last_ = probes;
   steps_.add(dt, std::move(readings));
 }
 
@@ -94,8 +95,8 @@ std::vector<ProbeMeasurement> ProbeMeans::take()
       sum[k].wall_support += w * readings[k].wall_support;
     }
   });
+  if (!(covered > 0.0)) return {};  // no step since the reset
   std::vector<ProbeMeasurement> mean = last_;
-  if (!(covered > 0.0)) return mean;  // no step since the reset: the newest readings as they are
   for (std::size_t k = 0; k < mean.size(); ++k)
   {
     ProbeMeasurement& m = mean[k];

@@ -608,7 +608,8 @@ void SolverLoop::publishFrame(const StepReport& rep, double paced_rtf)
   f.spill_valid = false;
   if (measurements_)
   {
-    MeasurementReport m = measurements_->evaluate(*sim_);
+    // Windowed probes were read after this step already (afterStep): their mean, not a second read.
+    MeasurementReport m = measurements_->evaluate(*sim_, !probeWindowed());
     if (probeWindowed()) m.probes = probe_means_.take();
     for (const RegionMeasurement& r : m.regions)
     {

@@ -125,7 +125,9 @@ public:
   /// Cost: one pass over the fluid particles for the regions and the spill (each particle tested
   /// against every region), and for the probes a counting sort of the fluid and boundary
   /// particles into a grid around them.
-  MeasurementReport evaluate(const Simulation& sim);
+  /// `probes` false leaves the probes out (a caller that reads them after every step already has
+  /// this step's).
+  MeasurementReport evaluate(const Simulation& sim, bool probes = true);
   /// The probes alone (report.probes as evaluate() gives them; time set, regions and spill left
   /// empty): what a mean of the probes over many steps needs each step.
   MeasurementReport evaluateProbes(const Simulation& sim);

@@ -246,7 +246,7 @@ private:
     double fluid_support = 0.0;      // unit-less
     double wall_support = 0.0;       // unit-less
   };
-  std::vector<ProbeMeasurement> last_;  // the newest step's probes (names, positions)
+  std::vector<ProbeMeasurement> last_;  // the probes' names and positions (their readings unused)
   StepWindow<std::vector<Reading>> steps_;
 };
 
