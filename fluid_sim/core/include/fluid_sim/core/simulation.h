@@ -53,8 +53,9 @@ struct StepReport
   double feedback_ratio_min = 1.0;
   double feedback_ratio_max = 1.0;
   // Per iteration of the density solve: the largest relative residual |s_i - D_i| dt^2/rho0 over
-  // the particles (the mean, Eq. A9, is density_error). A Jacobi iteration that diverges
-  // somewhere shows here first.
+  // the particles where the constraint is active (compression left, or a pressure acting; not
+  // the free surface's under-dense particles, whose pressure is clamped at zero). The mean,
+  // Eq. A9, is density_error. A Jacobi iteration that diverges somewhere shows here first.
   std::vector<float> density_residual_max;
   std::size_t neighbor_pairs = 0;  // fluid-fluid + fluid-boundary pairs in this step's lists
   bool unstable = false;
