@@ -50,11 +50,13 @@ KNOWN = {
     (2, "mls"): "refuted: a wall sampled at the fluid spacing drags the water by its bumps, with MLS as with SPH "
                 "(30 %/s at R/s 10 and 20); the density-rate term adds nothing; sampled at half the spacing "
                 "(sample_spacing: auto) no method drags (docs/method_notes.md, Turning container)",
-    (7, "mirroring"): "single-term mirroring's cube reads 0.91-0.93 rho0 g V; its force follows the boundary volume "
-                      "factor gamma of Eq. A3 (docs/method_notes.md, Known problems)",
-    (3, "mirroring"): "single-term mirroring's particle pressures rise 22-28 % faster than rho0 g d in the deep "
-                      "column while the floor carries the weight within 0.2 %: the pressures are not the "
-                      "hydrostatic field (mechanism not yet measured)",
+    (7, "mirroring"): "refuted with its mechanism: at rest density the single term (p_b = 0) carries half the "
+                      "pressure (plane model: 0.51), so the layer next to a wall slumps to s/5 from it and the "
+                      "cube's hole is 6.4 spacings tall, 0.914 of the cube (measured 0.91-0.94); no volume, gamma "
+                      "or inset fixes it (docs/method_notes.md, Known problems)",
+    (3, "mirroring"): "the single term (p_b = 0) carries half the pressure at rest density: the layer next to the "
+                      "side walls reads 1.9 times rho0 g d while the interior reads it within 1 % and the floor "
+                      "carries the weight (docs/method_notes.md, Known problems)",
 }
 G = 9.81
 
@@ -629,19 +631,24 @@ def deep_sets(spacing, depth, method, tol):
             "domain.max": "[%g,%g,%g]" % (w + 0.05, w + 0.05, depth + 0.25)}
 
 
-def hydrostatic(run, depth, t_from):
+def hydrostatic(run, depth, t_from, width=None):
     """Time-averaged pressure against depth over the frames at t >= t_from: slope of p against
     rho0 g d (least squares through the origin, particles deeper than 2 spacings), rms error
-    relative to rho0 g depth, and binned profile."""
+    relative to rho0 g depth, and binned profile. With `width` (m, a square shaft from 0 to width
+    in x and y) also the slope of the particles within one spacing of a side wall and of those 2
+    spacings or more from every side wall: single-term mirroring's wall layer carries about twice
+    the pressure of the interior (docs/method_notes.md, Known problems)."""
     s = run.summary["spacing"]
     frames = [f for f in run.frames() if run.frame_time(f) >= t_from - 1e-9]
     if not frames or not run.ok:
         return None
-    zs, ps = [], []
+    zs, ps, walls = [], [], []
     for f in frames:
         d = read_ply(f)
         zs.append(d[:, 2])
         ps.append(d[:, 6])
+        if width is not None:
+            walls.append(np.minimum(np.minimum(d[:, 0], width - d[:, 0]), np.minimum(d[:, 1], width - d[:, 1])))
     z = np.concatenate(zs)
     p = np.concatenate(ps)
     top = depth  # the free surface of an incompressible column of this volume
@@ -649,6 +656,16 @@ def hydrostatic(run, depth, t_from):
     ref = RHO0 * G * dd
     sel = dd > 2 * s
     slope = float(np.sum(p[sel] * ref[sel]) / np.sum(ref[sel] ** 2))
+    slope_wall = slope_interior = float("nan")
+    if width is not None:
+        wall = np.concatenate(walls)
+        for name, m in (("wall", sel & (wall < s)), ("interior", sel & (wall >= 2 * s))):
+            if np.any(m):
+                v = float(np.sum(p[m] * ref[m]) / np.sum(ref[m] ** 2))
+                if name == "wall":
+                    slope_wall = v
+                else:
+                    slope_interior = v
     rms = float(np.sqrt(np.mean((p[sel] - ref[sel]) ** 2)) / (RHO0 * G * depth))
     bins = np.linspace(0, depth, 21)
     centres, means = [], []
@@ -660,7 +677,8 @@ def hydrostatic(run, depth, t_from):
     centres, means = np.array(centres), np.array(means)
     inner = centres > 2 * s
     prof = float(np.sqrt(np.mean((means[inner] - RHO0 * G * centres[inner]) ** 2)) / (RHO0 * G * depth))
-    return dict(slope=slope, rms=rms, profile=(centres, means), profile_err=prof)
+    return dict(slope=slope, rms=rms, profile=(centres, means), profile_err=prof, slope_wall=slope_wall,
+                slope_interior=slope_interior)
 
 
 def deep_metrics(run, depth, spacing):
@@ -671,12 +689,13 @@ def deep_metrics(run, depth, spacing):
                iters=s.get("mean_density_iterations", float("nan")), ms_step=s.get("ms_per_step", float("nan")),
                err=s.get("mean_density_error", float("nan")), sec_per_s=run.sec_per_sim_s(),
                force_ratio=float("nan"), slope=float("nan"), rms=float("nan"), profile=None,
-               profile_err=float("nan"))
+               profile_err=float("nan"), slope_wall=float("nan"), slope_interior=float("nan"))
     if run.ok:
         res["force_ratio"] = float(-run.body_force("shaft")[2] / weight)
-        h = hydrostatic(run, depth, 0.5 * s["simulated_time_s"])
+        h = hydrostatic(run, depth, 0.5 * s["simulated_time_s"], 8 * spacing)  # deep_sets' shaft
         if h:
-            res.update(slope=h["slope"], rms=h["rms"], profile=h["profile"], profile_err=h["profile_err"])
+            res.update(slope=h["slope"], rms=h["rms"], profile=h["profile"], profile_err=h["profile_err"],
+                       slope_wall=h["slope_wall"], slope_interior=h["slope_interior"])
     return res
 
 
@@ -695,10 +714,12 @@ def case3(S):
     S.write_csv("case3_deep_column.csv", ["method", "status", "fluid_particles", "floor_force_over_weight",
                                            "pressure_slope_over_rho0_g", "profile_error_over_rho0_g_depth",
                                            "particle_rms_pressure_error_over_rho0_g_depth",
-                                           "density_iterations", "ms_per_step", "mean_density_error"],
+                                           "density_iterations", "ms_per_step", "mean_density_error",
+                                           "pressure_slope_next_to_side_wall", "pressure_slope_interior"],
                 [[m, res[m]["status"], res[m]["n"], res[m]["force_ratio"], res[m]["slope"], res[m]["profile_err"],
                   res[m]["rms"],
-                  res[m]["iters"], res[m]["ms_step"], res[m]["err"]] for m in METHODS])
+                  res[m]["iters"], res[m]["ms_step"], res[m]["err"], res[m]["slope_wall"],
+                  res[m]["slope_interior"]] for m in METHODS])
     prof_rows = []
     fig, ax = plt.subplots(1, 2, figsize=(10, 4.2))
     dref = np.linspace(0, depth, 10)
@@ -733,14 +754,17 @@ def case3(S):
               "Floor force: the shaft's vertical force averaged over the last 10 %% of the run. Pressure slope: least "
               "squares of p against rho0 g d through the origin over all particle samples deeper than 2 spacings; "
               "profile error: rms over 5 cm depth bins of (mean p - rho0 g d) / (rho0 g H); particle rms error: the "
-              "same over single particles (includes the particle-to-particle pressure noise).\n"
+              "same over single particles (includes the particle-to-particle pressure noise). The slope is also given "
+              "for the particles within one spacing of a side wall (next to wall) and for those 2 spacings or more from "
+              "every side wall (interior).\n"
               % (depth, round(depth / spacing), float(deep_sets(spacing, depth, "mls", 0.001)["fluid[0].box.max"]
                                                       .strip("[]").split(",")[0]),
                  spacing, res["mls"]["n"], res["mls"]["nb"], 100 * tol, duration))
     md.append(md_table(["method", "status", "floor force / weight", "pressure slope / (rho0 g)",
-                        "profile error", "particle rms error", "density iterations / step", "ms / step",
-                        "mean density error %"],
+                        "slope next to wall / interior", "profile error", "particle rms error",
+                        "density iterations / step", "ms / step", "mean density error %"],
                        [[m, res[m]["status"], f3(res[m]["force_ratio"], 4), f3(res[m]["slope"], 4),
+                         "%s / %s" % (f3(res[m]["slope_wall"], 4), f3(res[m]["slope_interior"], 4)),
                          "%.2f %%" % (100 * res[m]["profile_err"]), "%.2f %%" % (100 * res[m]["rms"]),
                          f3(res[m]["iters"]), f3(res[m]["ms_step"]),
                          f3(100 * res[m]["err"])] for m in METHODS]))
