@@ -1276,6 +1276,10 @@ def case6(S):
 # ----------------------------------------------------------------------------------------------
 # Case 7: Archimedes on a fixed submerged cube
 # ----------------------------------------------------------------------------------------------
+CUBE_STARTS = 4  # full case 7: settled states drawn per build and method
+CUBE_START_SHIFT = 1e-7  # m, the fluid block's shift between two starts
+
+
 def cube_sets(method, quick):
     sets = {"solver.boundary_pressure": method}
     if quick:
@@ -1297,16 +1301,28 @@ def case7(S):
     # energy 1e-3 J at 2 s, a fortieth of its peak, halving every 0.3-0.4 s), and each build's
     # window caught another phase of it.
     duration = 1.0 if S.quick else 5.0
+    # Starts: the settled state is not unique. Moving the fluid block by 1e-7 m (a rounding-sized
+    # change, as another build's arithmetic is) changed one build's 5 s reading from 1.003 to 0.982
+    # (MLS) and from 0.984 to 1.041 (SPH) (docs/method_notes.md, Known problems): a single run
+    # draws one settled state. The full case runs STARTS of them per build and method, checks their
+    # mean and reports their spread.
+    starts = 1 if S.quick else CUBE_STARTS
     builds = [("this build", S.runner)] + list(S.opts.extra_runner or [])
     specs, keys = [], []
     for label, runner in builds:
         tag = "" if runner == S.runner else "_" + "".join(c if c.isalnum() else "_" for c in label)
         for m in METHODS:
-            keys.append((label, m))
-            specs.append(("case7/%s%s" % (m, tag), "submerged_cube.yaml", cube_sets(m, S.quick), duration, runner))
-    futures = [S.pool.submit(S._run, k, sc, st, d, r) for k, sc, st, d, r in specs]
+            for k in range(starts):
+                sets = cube_sets(m, S.quick)
+                name = "case7/%s%s" % (m, tag)
+                if k:
+                    sets["fluid[0].box.min"] = "[%g,0,0]" % (k * CUBE_START_SHIFT)
+                    name += "_start%d" % k
+                keys.append((label, m, k))
+                specs.append((name, "submerged_cube.yaml", sets, duration, runner))
+    futures = [S.pool.submit(S._run, n, sc, st, d, r) for n, sc, st, d, r in specs]
     runs = dict(zip(keys, [f.result() for f in futures]))
-    res = {}
+    per_run = {}
     for key, run in runs.items():
         r = dict(status=run.status, ratio=float("nan"), momentum=float("nan"), sideways=float("nan"),
                  n=run.summary.get("fluid_particles", {}).get("initial", 0))
@@ -1317,30 +1333,53 @@ def case7(S):
             r["ratio"] = float(cube[2] / archimedes)
             r["sideways"] = float(np.hypot(cube[0], cube[1]) / archimedes)
             r["momentum"] = float(-(cube[2] + tank[2]) / weight)  # both push down on them: -W
-        res[key] = r
-    S.write_csv("case7_submerged_cube.csv", ["build", "method", "status", "fluid_particles", "cube_force_over_rho0_g_V",
-                                             "cube_sideways_over_rho0_g_V", "tank_plus_cube_over_weight"],
-                [[b, m, res[(b, m)]["status"], res[(b, m)]["n"], res[(b, m)]["ratio"], res[(b, m)]["sideways"],
-                  res[(b, m)]["momentum"]] for b, m in keys])
-    for b, m in keys:
+        per_run[key] = r
+    pairs = [(b, m) for b, _ in builds for m in METHODS]
+    res = {}
+    for b, m in pairs:
+        rs = [per_run[(b, m, k)] for k in range(starts)]
+        ok = all(r["status"] == "ok" for r in rs)
+        ratios = np.array([r["ratio"] for r in rs])
+        res[(b, m)] = dict(status=rs[0]["status"] if ok else next(r["status"] for r in rs if r["status"] != "ok"),
+                           n=rs[0]["n"], ratio=float(np.mean(ratios)) if ok else float("nan"),
+                           lo=float(np.min(ratios)) if ok else float("nan"),
+                           hi=float(np.max(ratios)) if ok else float("nan"),
+                           sideways=float(np.mean([r["sideways"] for r in rs])),
+                           momentum=float(np.mean([r["momentum"] for r in rs])) if ok else float("nan"),
+                           momentum_worst=float(max((abs(r["momentum"] - 1) for r in rs), default=float("nan"))))
+    S.write_csv("case7_submerged_cube.csv", ["build", "method", "start", "status", "fluid_particles",
+                                             "cube_force_over_rho0_g_V", "cube_sideways_over_rho0_g_V",
+                                             "tank_plus_cube_over_weight"],
+                [[b, m, k, per_run[(b, m, k)]["status"], per_run[(b, m, k)]["n"], per_run[(b, m, k)]["ratio"],
+                  per_run[(b, m, k)]["sideways"], per_run[(b, m, k)]["momentum"]] for b, m, k in keys])
+    of = "" if starts == 1 else " (mean of %d starts)" % starts
+    for b, m in pairs:
         where = "" if b == "this build" else " (%s)" % b
-        S.check(7, "%s%s: cube force = rho0 g V within 2 %%" % (m, where), abs(res[(b, m)]["ratio"] - 1) < 0.02,
-                "F/(rho0 g V) = %s" % f3(res[(b, m)]["ratio"], 4), known=KNOWN.get((7, m)))
-        S.check(7, "%s%s: tank + cube = water weight within 1 %%" % (m, where),
-                abs(res[(b, m)]["momentum"] - 1) < 0.01, "%s" % f3(res[(b, m)]["momentum"], 5))
+        S.check(7, "%s%s: cube force = rho0 g V within 2 %%%s" % (m, where, of), abs(res[(b, m)]["ratio"] - 1) < 0.02,
+                "F/(rho0 g V) = %s%s" % (f3(res[(b, m)]["ratio"], 4), "" if starts == 1 else
+                                         " (starts %s-%s)" % (f3(res[(b, m)]["lo"], 4), f3(res[(b, m)]["hi"], 4))),
+                known=KNOWN.get((7, m)))
+        S.check(7, "%s%s: tank + cube = water weight within 1 %%%s" % (m, where, "" if starts == 1 else
+                                                                      " (every start)"),
+                res[(b, m)]["momentum_worst"] < 0.01, "%s" % f3(res[(b, m)]["momentum"], 5))
     md = ["## 7. Archimedes: a fixed submerged cube\n"]
     md.append("A cube %g m a side (7 spacings of 1/70 m), its faces on the fluid lattice, fixed in %s "
               "(%d fluid particles); dt 1 ms, XSPH 0.01, %g s simulated. Forces: the runner's mean over the "
               "last tenth of the run (summary.json). The cube should feel rho0 g V = %.3f N upwards; tank and "
               "cube together carry the water's weight whatever the method (momentum balance at rest), so the "
               "second column separates a wrong pressure field from water that has not come to rest. "
-              "Builds: %s.\n" % (side, "the ctest Buoyancy test's tank (0.21 x 0.21 m, 0.31 m deep)" if S.quick
-                                 else "a 0.3 x 0.3 m tank filled 0.4 m deep", res[keys[-1]]["n"], duration,
-                                 archimedes, "; ".join("%s (`%s`)" % (b, os.path.relpath(r, ROOT)) for b, r in builds)))
-    md.append(md_table(["build", "method", "status", "F / (rho0 g V)", "sideways / (rho0 g V)",
-                        "(tank + cube) / weight"],
-                       [[b, m, res[(b, m)]["status"], f3(res[(b, m)]["ratio"], 4), f3(res[(b, m)]["sideways"], 2),
-                         f3(res[(b, m)]["momentum"], 5)] for b, m in keys]))
+              "Builds: %s.%s\n" % (side, "the ctest Buoyancy test's tank (0.21 x 0.21 m, 0.31 m deep)" if S.quick
+                                   else "a 0.3 x 0.3 m tank filled 0.4 m deep", res[pairs[-1]]["n"], duration,
+                                   archimedes, "; ".join("%s (`%s`)" % (b, os.path.relpath(r, ROOT)) for b, r in builds),
+                                   "" if starts == 1 else
+                                   " Each build and method ran from %d starts, the fluid block moved by 0, 1, ... "
+                                   "times %g m in x (a rounding-sized change): the table gives their mean and "
+                                   "range, the CSV each run." % (starts, CUBE_START_SHIFT)))
+    md.append(md_table(["build", "method", "status", "F / (rho0 g V)" + ("" if starts == 1 else ", mean"),
+                        "range over the starts", "sideways / (rho0 g V)", "(tank + cube) / weight"],
+                       [[b, m, res[(b, m)]["status"], f3(res[(b, m)]["ratio"], 4),
+                         "-" if starts == 1 else "%s-%s" % (f3(res[(b, m)]["lo"], 4), f3(res[(b, m)]["hi"], 4)),
+                         f3(res[(b, m)]["sideways"], 2), f3(res[(b, m)]["momentum"], 5)] for b, m in pairs]))
     md.append("\nCSV: [case7_submerged_cube.csv](%s).\n" % S.rel("case7_submerged_cube.csv"))
     return {"res": res, "md": "\n".join(md)}
 
