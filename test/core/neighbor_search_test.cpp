@@ -126,6 +126,40 @@ TEST(NeighborSearch, CrossQueryWithIdsAndLargerRadiusEqualsBruteForce)
   }
 }
 
+TEST(NeighborSearch, RowsStayRightOverSeveralWavesAndAChangingQueryCount)
+{
+  // The search stages one wave of blocks at a time (32 blocks of 512 queries) and reuses its
+  // staging and rows from build to build: with 40,000 queries the rows span three waves, and
+  // rebuilding with fewer, then more queries must leave no row of an earlier build behind (the
+  // fit lists' query count changes every step).
+  const std::vector<Vec3> pts = randomPoints(2000, 7);
+  const Real r = Real(0.06);
+  UniformGrid grid(Vec3d(-0.5, -0.5, -0.5), Vec3d(0.3, 0.3, 0.3), r, 1);
+  grid.build(pts);
+  std::vector<Vec3> sorted(grid.numInside());
+  for (std::size_t k = 0; k < sorted.size(); ++k) sorted[k] = pts[grid.order()[k]];
+  NeighborLists lists;
+  for (std::size_t count : {40000u, 9000u, 38000u})
+  {
+    const std::vector<Vec3> queries = randomPoints(count, unsigned(count));
+    buildNeighborLists(
+        queries, grid, sorted, grid.order(), r, false, [](Real d2) { return d2; }, [](Real d2) { return Real(2) * d2; },
+        lists);
+    ASSERT_EQ(lists.rows(), queries.size());
+    ASSERT_EQ(lists.offset.back(), lists.pairs());
+    ASSERT_EQ(lists.grad_factor.size(), lists.pairs());
+    ASSERT_EQ(lists.weight.size(), lists.pairs());
+    EXPECT_EQ(rowsOf(lists), bruteForce(queries, pts, r, false)) << count << " queries";
+    for (std::size_t i = 0; i < lists.rows(); ++i)
+      for (Index k = lists.offset[i]; k < lists.offset[i + 1]; ++k)
+      {
+        const Real d2 = (queries[i] - pts[lists.index[k]]).squaredNorm();
+        ASSERT_FLOAT_EQ(lists.grad_factor[k], d2) << "row " << i;
+        ASSERT_FLOAT_EQ(lists.weight[k], Real(2) * d2) << "row " << i;
+      }
+  }
+}
+
 TEST(NeighborSearch, PointsOutsideTheGridAreIgnoredNotCrashing)
 {
   std::vector<Vec3> pts = {Vec3(0, 0, 0), Vec3(Real(0.01), 0, 0), Vec3(5, 5, 5), Vec3(NAN, 0, 0)};

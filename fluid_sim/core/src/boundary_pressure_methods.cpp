@@ -188,7 +188,9 @@ void MlsBoundaryPressure::prepare()
   const Real mass = in_.constants.mass;
   // constant_ stays zero for MLS (set at construction, never written): no per-step refill.
   const std::size_t na = active_.size();
-  fit_kind_.assign(na, 0);
+  // Every entry is written below; resize keeps the storage while na (the active boundary
+  // particles) creeps up, where assign reallocated it at each new largest na.
+  fit_kind_.resize(na);
   parallelRanges(na, 256, [&](const tbb::blocked_range<std::size_t>& r) {
     std::vector<Real> w;
     for (std::size_t q = r.begin(); q != r.end(); ++q)

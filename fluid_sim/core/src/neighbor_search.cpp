@@ -32,7 +32,10 @@ void UniformGrid::build(const std::vector<Vec3>& points)
     for (std::size_t i = r.begin(); i != r.end(); ++i) cell_of_point_[i] = cellOf(points[i]);
   });
   // Counting sort (stable, so equal cells keep their relative order and the result is
-  // deterministic). cell_start_ doubles as the histogram.
+  // deterministic). cell_start_ doubles as the histogram and, placing the points from the last to
+  // the first, as the cursor: each cell's entry counts down from the cell's end to its start. A
+  // separate cursor array was a copy of cell_start_ per build (4 B per cell, 2.8 MB at 195 k
+  // particles, the same again for the static boundary's grid).
   std::fill(cell_start_.begin(), cell_start_.end(), 0);
   const std::size_t num_cells = cell_start_.size() - 1;
   std::size_t outside = 0;
@@ -42,21 +45,20 @@ void UniformGrid::build(const std::vector<Vec3>& points)
     if (c == kOutside)
       ++outside;
     else
-      ++cell_start_[c + 1];
+      ++cell_start_[c];
   }
-  for (std::size_t c = 0; c < num_cells; ++c) cell_start_[c + 1] += cell_start_[c];
+  for (std::size_t c = 1; c < num_cells; ++c) cell_start_[c] += cell_start_[c - 1];  // end of cell c
   num_inside_ = n - outside;
+  cell_start_[num_cells] = Index(num_inside_);
   order_.resize(n);
-  cursor_.assign(cell_start_.begin(), cell_start_.end() - 1);
-  auto& cursor = cursor_;
-  std::size_t next_outside = num_inside_;
-  for (std::size_t i = 0; i < n; ++i)
+  std::size_t next_outside = n;
+  for (std::size_t i = n; i-- > 0;)
   {
     const Index c = cell_of_point_[i];
     if (c == kOutside)
-      order_[next_outside++] = Index(i);
+      order_[--next_outside] = Index(i);
     else
-      order_[cursor[c]++] = Index(i);
+      order_[--cell_start_[c]] = Index(i);
   }
 }
 

@@ -69,7 +69,6 @@ private:
   std::vector<Index> cell_start_;  // size cells + 1
   std::vector<Index> cell_of_point_;
   std::vector<Index> order_;
-  std::vector<Index> cursor_;
   std::size_t num_inside_ = 0;
 };
 

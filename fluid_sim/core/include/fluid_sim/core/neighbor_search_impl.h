@@ -40,27 +40,39 @@ void buildNeighborLists(const std::vector<Vec3>& queries, const std::vector<Grid
   (void)pairWeight;
   const std::size_t n = queries.size();
   constexpr std::size_t kBlock = 512;
+  // Blocks are searched a wave at a time into one staging slot each and copied into the rows
+  // once the wave's row offsets are known: the staging holds one wave (32 blocks, about 6 MB at
+  // 30 pairs per query), not every block of the step. Staging per block held as much as the
+  // rows themselves plus its growth slack, and each block kept the largest list it ever held
+  // (at 195 k particles, 115 MB against 70 MB of rows: 587 B per fluid particle), and the copy
+  // read it back from memory instead of cache.
+  constexpr std::size_t kWave = 32;
   const std::size_t blocks = (n + kBlock - 1) / kBlock;
-  out.offset.assign(n + 1, 0);
+  const std::size_t slots = std::min(blocks, kWave);
+  // Every row's count is written below, so the offsets need no clearing; resize (not assign)
+  // keeps their storage when n changes from step to step (the fit lists' n, the active boundary
+  // particles, grew by a few in 3 of 4 steps and assign reallocated them each time).
+  out.offset.resize(n + 1);
+  out.offset[0] = 0;
   const Real r2max = radius * radius;
   // Cells within reach of a query's cell, per set (the sets' grids may differ).
   std::vector<int> reach(sources.size());
   for (std::size_t s = 0; s < sources.size(); ++s)
     reach[s] = int(std::ceil(double(radius) / sources[s].grid->cellSize() - 1e-9));
-  // One pass over candidates per block into block-local lists, then one copy into the CSR rows:
+  // One pass over candidates per block into slot-local lists, then one copy into the CSR rows:
   // a single distance test per candidate instead of a count pass plus a fill pass. The factor
   // staging first holds r^2 (m^2) of every hit.
   auto& block_index = out.scratch_index;
   auto& block_factor = out.scratch_factor;
   auto& block_weight = out.scratch_weight;
-  if (block_index.size() < blocks)
+  if (block_index.size() < slots)
   {
-    block_index.resize(blocks);
-    block_factor.resize(blocks);
+    block_index.resize(slots);
+    block_factor.resize(slots);
   }
-  if (kWeight && block_weight.size() < blocks) block_weight.resize(blocks);
+  if (kWeight && block_weight.size() < slots) block_weight.resize(slots);
   auto& block_used = out.scratch_used;
-  block_used.resize(std::max(block_used.size(), blocks));
+  block_used.resize(std::max(block_used.size(), slots));
 #if defined(__AVX512F__)
   constexpr bool kVector = std::is_same_v<Real, float>;
 #else
@@ -95,127 +107,158 @@ void buildNeighborLists(const std::vector<Vec3>& queries, const std::vector<Grid
     }
   }
   constexpr std::size_t kSlack = 16;  // the vector path stores whole vectors past the cursor
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, blocks, 1), [&](const tbb::blocked_range<std::size_t>& rb) {
-    for (std::size_t b = rb.begin(); b != rb.end(); ++b)
-    {
-      auto& bi = block_index[b];
-      auto& bf = block_factor[b];
-      // The weight staging follows the index staging's size (it may have been grown by an
-      // earlier build without weights); below they grow together.
-      if constexpr (kWeight)
-        if (block_weight[b].size() < bi.size()) block_weight[b].resize(bi.size());
-      std::size_t used = 0;
-      const std::size_t i_end = std::min(n, (b + 1) * kBlock);
-      for (std::size_t i = b * kBlock; i < i_end; ++i)
+  if constexpr (!kFactor) out.grad_factor.clear();
+  if constexpr (!kWeight) out.weight.clear();
+  // The rows' arrays keep their storage from build to build and are cut to this build's pairs at
+  // the end. The last build's rows are dead here: when they leave less than 1/16 of room for
+  // growth, the arrays are freed and then allocated with 1/4 of room, so that growing copies no
+  // dead rows and never holds the old and the new arrays at once (growing by resize in the first
+  // step after the fill's relaxation did both: 48 instead of 44 MB, the peak of a 33 k run).
+  // Steady or slowly growing pair counts allocate nothing.
+  auto makeRoom = [](auto& values, std::size_t last) {
+    if (values.capacity() >= last + last / 16) return;
+    std::decay_t<decltype(values)>().swap(values);
+    values.reserve(last + last / 4);
+  };
+  const std::size_t last_pairs = out.index.size();
+  makeRoom(out.index, last_pairs);
+  if constexpr (kFactor) makeRoom(out.grad_factor, last_pairs);
+  if constexpr (kWeight) makeRoom(out.weight, last_pairs);
+  // Each array is checked on its own: a build without weights leaves `weight` empty beside a
+  // full `index`.
+  auto growRows = [&](std::size_t size) {
+    if (out.index.size() < size) out.index.resize(size);
+    if constexpr (kFactor)
+      if (out.grad_factor.size() < size) out.grad_factor.resize(size);
+    if constexpr (kWeight)
+      if (out.weight.size() < size) out.weight.resize(size);
+  };
+  for (std::size_t w0 = 0; w0 < blocks; w0 += kWave)
+  {
+    const std::size_t w1 = std::min(blocks, w0 + kWave);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(w0, w1, 1), [&](const tbb::blocked_range<std::size_t>& rb) {
+      for (std::size_t b = rb.begin(); b != rb.end(); ++b)
       {
-        const Vec3 xi = queries[i];
-        const std::size_t row_start = used;
-        const Index self = skip_self ? Index(i) : ~Index(0);
-        for (std::size_t s = 0; s < sources.size(); ++s)
+        const std::size_t slot = b - w0;
+        auto& bi = block_index[slot];
+        auto& bf = block_factor[slot];
+        // The weight staging follows the index staging's size (it may have been grown by an
+        // earlier build without weights); below they grow together.
+        if constexpr (kWeight)
+          if (block_weight[slot].size() < bi.size()) block_weight[slot].resize(bi.size());
+        std::size_t used = 0;
+        const std::size_t i_end = std::min(n, (b + 1) * kBlock);
+        for (std::size_t i = b * kBlock; i < i_end; ++i)
         {
-          const GridPoints& src = sources[s];
-          const Index* const id = src.ids;
-          src.grid->forEachRange(xi, reach[s], [&](Index begin, Index end) {
-            const std::size_t len = end - begin;
-            if (bi.size() < used + len + kSlack)
-            {
-              bi.resize(std::max(2 * bi.size(), used + len + kSlack + 256));
-              bf.resize(bi.size());
-              if constexpr (kWeight) block_weight[b].resize(bi.size());
-            }
-            Index* const out_j = bi.data();
-            Real* const out_d2 = bf.data();
-#if defined(__AVX512F__)
-            if constexpr (kVector)
-            {
-              const std::size_t m = src.count;
-              const float* const px = soa_of[s];
-              const float* const py = px + m;
-              const float* const pz = py + m;
-              // 16 candidates at a time: distances, a hit mask, and the hits compressed in
-              // registers and stored as whole vectors (the memory form of vpcompress is slow on
-              // some cores); the cursor advances by the number of hits.
-              const __m512 qx = _mm512_set1_ps(xi.x()), qy = _mm512_set1_ps(xi.y()), qz = _mm512_set1_ps(xi.z());
-              const __m512 r2v = _mm512_set1_ps(r2max);
-              const __m512i lane = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
-              const __m512i selfv = _mm512_set1_epi32(int(self));
-              for (Index k = begin; k < end; k += 16)
-              {
-                const unsigned left = end - k;
-                const __mmask16 valid = left >= 16 ? __mmask16(0xFFFF) : __mmask16((1u << left) - 1u);
-                const __m512 dx = _mm512_sub_ps(_mm512_maskz_loadu_ps(valid, px + k), qx);
-                const __m512 dy = _mm512_sub_ps(_mm512_maskz_loadu_ps(valid, py + k), qy);
-                const __m512 dz = _mm512_sub_ps(_mm512_maskz_loadu_ps(valid, pz + k), qz);
-                const __m512 d2 = _mm512_fmadd_ps(dz, dz, _mm512_fmadd_ps(dy, dy, _mm512_mul_ps(dx, dx)));
-                const __m512i j =
-                    id ? _mm512_maskz_loadu_epi32(valid, id + k) : _mm512_add_epi32(_mm512_set1_epi32(int(k)), lane);
-                const __mmask16 hit =
-                    _mm512_mask_cmp_ps_mask(valid, d2, r2v, _CMP_LT_OQ) & __mmask16(~_mm512_cmpeq_epi32_mask(j, selfv));
-                _mm512_storeu_si512(out_j + used, _mm512_maskz_compress_epi32(hit, j));
-                _mm512_storeu_ps(out_d2 + used, _mm512_maskz_compress_ps(hit, d2));
-                used += std::size_t(_mm_popcnt_u32(hit));
-              }
-              return;
-            }
-#endif
-            // Branch-free compaction: every candidate is written, only hits advance the cursor.
-            // Once the particles are disordered the hit test is a coin toss for the branch
-            // predictor; with a branch the search took 3x longer late in a dam break than on the
-            // initial lattice at the same candidate count.
-            for (Index k = begin; k < end; ++k)
-            {
-              const Real d2 = (xi - src.sorted[k]).squaredNorm();
-              const Index j = id ? id[k] : k;
-              out_j[used] = j;
-              out_d2[used] = d2;
-              used += std::size_t((d2 < r2max) & (j != self));
-            }
-          });
-        }
-        // Values for the hits only (r^2 is overwritten by the factor in place).
-        if constexpr (kWeight && kFactor)
-        {
-          auto& bw = block_weight[b];
-          for (std::size_t k = row_start; k < used; ++k)
+          const Vec3 xi = queries[i];
+          const std::size_t row_start = used;
+          const Index self = skip_self ? Index(i) : ~Index(0);
+          for (std::size_t s = 0; s < sources.size(); ++s)
           {
-            const Real d2 = bf[k];
-            bw[k] = pairWeight(d2);
-            bf[k] = pairGradFactor(d2);
+            const GridPoints& src = sources[s];
+            const Index* const id = src.ids;
+            src.grid->forEachRange(xi, reach[s], [&](Index begin, Index end) {
+              const std::size_t len = end - begin;
+              if (bi.size() < used + len + kSlack)
+              {
+                bi.resize(std::max(2 * bi.size(), used + len + kSlack + 256));
+                bf.resize(bi.size());
+                if constexpr (kWeight) block_weight[slot].resize(bi.size());
+              }
+              Index* const out_j = bi.data();
+              Real* const out_d2 = bf.data();
+#if defined(__AVX512F__)
+              if constexpr (kVector)
+              {
+                const std::size_t m = src.count;
+                const float* const px = soa_of[s];
+                const float* const py = px + m;
+                const float* const pz = py + m;
+                // 16 candidates at a time: distances, a hit mask, and the hits compressed in
+                // registers and stored as whole vectors (the memory form of vpcompress is slow on
+                // some cores); the cursor advances by the number of hits.
+                const __m512 qx = _mm512_set1_ps(xi.x()), qy = _mm512_set1_ps(xi.y()), qz = _mm512_set1_ps(xi.z());
+                const __m512 r2v = _mm512_set1_ps(r2max);
+                const __m512i lane = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+                const __m512i selfv = _mm512_set1_epi32(int(self));
+                for (Index k = begin; k < end; k += 16)
+                {
+                  const unsigned left = end - k;
+                  const __mmask16 valid = left >= 16 ? __mmask16(0xFFFF) : __mmask16((1u << left) - 1u);
+                  const __m512 dx = _mm512_sub_ps(_mm512_maskz_loadu_ps(valid, px + k), qx);
+                  const __m512 dy = _mm512_sub_ps(_mm512_maskz_loadu_ps(valid, py + k), qy);
+                  const __m512 dz = _mm512_sub_ps(_mm512_maskz_loadu_ps(valid, pz + k), qz);
+                  const __m512 d2 = _mm512_fmadd_ps(dz, dz, _mm512_fmadd_ps(dy, dy, _mm512_mul_ps(dx, dx)));
+                  const __m512i j =
+                      id ? _mm512_maskz_loadu_epi32(valid, id + k) : _mm512_add_epi32(_mm512_set1_epi32(int(k)), lane);
+                  const __mmask16 hit = _mm512_mask_cmp_ps_mask(valid, d2, r2v, _CMP_LT_OQ) &
+                                        __mmask16(~_mm512_cmpeq_epi32_mask(j, selfv));
+                  _mm512_storeu_si512(out_j + used, _mm512_maskz_compress_epi32(hit, j));
+                  _mm512_storeu_ps(out_d2 + used, _mm512_maskz_compress_ps(hit, d2));
+                  used += std::size_t(_mm_popcnt_u32(hit));
+                }
+                return;
+              }
+#endif
+              // Branch-free compaction: every candidate is written, only hits advance the cursor.
+              // Once the particles are disordered the hit test is a coin toss for the branch
+              // predictor; with a branch the search took 3x longer late in a dam break than on the
+              // initial lattice at the same candidate count.
+              for (Index k = begin; k < end; ++k)
+              {
+                const Real d2 = (xi - src.sorted[k]).squaredNorm();
+                const Index j = id ? id[k] : k;
+                out_j[used] = j;
+                out_d2[used] = d2;
+                used += std::size_t((d2 < r2max) & (j != self));
+              }
+            });
           }
+          // Values for the hits only (r^2 is overwritten by the factor in place).
+          if constexpr (kWeight && kFactor)
+          {
+            auto& bw = block_weight[slot];
+            for (std::size_t k = row_start; k < used; ++k)
+            {
+              const Real d2 = bf[k];
+              bw[k] = pairWeight(d2);
+              bf[k] = pairGradFactor(d2);
+            }
+          }
+          else if constexpr (kWeight)
+          {
+            auto& bw = block_weight[slot];
+            for (std::size_t k = row_start; k < used; ++k) bw[k] = pairWeight(bf[k]);
+          }
+          else
+          {
+            for (std::size_t k = row_start; k < used; ++k) bf[k] = pairGradFactor(bf[k]);
+          }
+          out.offset[i + 1] = Index(used - row_start);
         }
-        else if constexpr (kWeight)
-        {
-          auto& bw = block_weight[b];
-          for (std::size_t k = row_start; k < used; ++k) bw[k] = pairWeight(bf[k]);
-        }
-        else
-        {
-          for (std::size_t k = row_start; k < used; ++k) bf[k] = pairGradFactor(bf[k]);
-        }
-        out.offset[i + 1] = Index(used - row_start);
+        block_used[slot] = used;
       }
-      block_used[b] = used;
-    }
-  });
-  for (std::size_t i = 0; i < n; ++i) out.offset[i + 1] += out.offset[i];
-  out.index.resize(out.offset[n]);
-  if constexpr (kFactor)
-    out.grad_factor.resize(out.offset[n]);
-  else
-    out.grad_factor.clear();
-  if constexpr (kWeight)
-    out.weight.resize(out.offset[n]);
-  else
-    out.weight.clear();
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, blocks, 1), [&](const tbb::blocked_range<std::size_t>& rb) {
-    for (std::size_t b = rb.begin(); b != rb.end(); ++b)
-    {
-      const std::size_t start = out.offset[b * kBlock];
-      std::copy_n(block_index[b].begin(), block_used[b], out.index.begin() + start);
-      if constexpr (kFactor) std::copy_n(block_factor[b].begin(), block_used[b], out.grad_factor.begin() + start);
-      if constexpr (kWeight) std::copy_n(block_weight[b].begin(), block_used[b], out.weight.begin() + start);
-    }
-  });
+    });
+    // The wave's rows follow the rows before it: offsets from counts, then the copy.
+    const std::size_t row_begin = w0 * kBlock, row_end = std::min(n, w1 * kBlock);
+    for (std::size_t i = row_begin; i < row_end; ++i) out.offset[i + 1] += out.offset[i];
+    growRows(out.offset[row_end]);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(w0, w1, 1), [&](const tbb::blocked_range<std::size_t>& rb) {
+      for (std::size_t b = rb.begin(); b != rb.end(); ++b)
+      {
+        const std::size_t slot = b - w0;
+        const std::size_t start = out.offset[b * kBlock];
+        std::copy_n(block_index[slot].begin(), block_used[slot], out.index.begin() + start);
+        if constexpr (kFactor)
+          std::copy_n(block_factor[slot].begin(), block_used[slot], out.grad_factor.begin() + start);
+        if constexpr (kWeight) std::copy_n(block_weight[slot].begin(), block_used[slot], out.weight.begin() + start);
+      }
+    });
+  }
+  const std::size_t pairs = out.offset[n];
+  out.index.resize(pairs);
+  if constexpr (kFactor) out.grad_factor.resize(pairs);
+  if constexpr (kWeight) out.weight.resize(pairs);
 }
 
 }  // namespace fluid_sim
