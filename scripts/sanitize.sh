@@ -13,6 +13,9 @@
 #   --asan, --tsan  one flavour only (default: both)
 #   --label L       run label L only (ros, io or core; repeatable; default: all three, in that order)
 #   --tests RE      run only the tests whose name matches the regular expression RE (ctest -R)
+#                   (a value-parameterized gtest's ctest name ends in "  # GetParam() = ..." with
+#                   CMake 3.25, e.g. "AllMethods/WarmStart.DamBreakStaysStable/mls  # GetParam() = 4-byte
+#                   object <03-00 00-00>": end RE with '/mls( |$)', not '/mls$', which matches nothing)
 #   --no-build      run the tests of the existing build folder as it is (no configure, no build)
 #   --quick         skip the long tests (the physical checks that run a scene for seconds: cube
 #                   buoyancy, 3 s at rest, the dam breaks of WarmStart and Stability, the STL
@@ -51,7 +54,7 @@ build=1
 labels=()
 tests_re=""
 usage() {
-  sed -n '2,31p' "$0"
+  sed -n '2,34p' "$0"
   exit 2
 }
 while (($# > 0)); do
