@@ -128,8 +128,8 @@ TEST(NeighborSearch, CrossQueryWithIdsAndLargerRadiusEqualsBruteForce)
 
 TEST(NeighborSearch, RowsStayRightOverSeveralWavesAndAChangingQueryCount)
 {
-  // The search stages one wave of blocks at a time (32 blocks of 512 queries) and reuses its
-  // staging and rows from build to build: with 40,000 queries the rows span three waves, and
+  // The search stages one wave of blocks at a time (64 blocks of 512 queries) and reuses its
+  // staging and rows from build to build: with 70,000 queries the rows span three waves, and
   // rebuilding with fewer, then more queries must leave no row of an earlier build behind (the
   // fit lists' query count changes every step).
   const std::vector<Vec3> pts = randomPoints(2000, 7);
@@ -139,7 +139,7 @@ TEST(NeighborSearch, RowsStayRightOverSeveralWavesAndAChangingQueryCount)
   std::vector<Vec3> sorted(grid.numInside());
   for (std::size_t k = 0; k < sorted.size(); ++k) sorted[k] = pts[grid.order()[k]];
   NeighborLists lists;
-  for (std::size_t count : {40000u, 9000u, 38000u})
+  for (std::size_t count : {70000u, 9000u, 68000u})
   {
     const std::vector<Vec3> queries = randomPoints(count, unsigned(count));
     buildNeighborLists(

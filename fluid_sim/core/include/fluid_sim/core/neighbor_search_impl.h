@@ -41,12 +41,15 @@ void buildNeighborLists(const std::vector<Vec3>& queries, const std::vector<Grid
   const std::size_t n = queries.size();
   constexpr std::size_t kBlock = 512;
   // Blocks are searched a wave at a time into one staging slot each and copied into the rows
-  // once the wave's row offsets are known: the staging holds one wave (32 blocks, about 6 MB at
+  // once the wave's row offsets are known: the staging holds one wave (64 blocks, about 12 MB at
   // 30 pairs per query), not every block of the step. Staging per block held as much as the
   // rows themselves plus its growth slack, and each block kept the largest list it ever held
   // (at 195 k particles, 115 MB against 70 MB of rows: 587 B per fluid particle), and the copy
-  // read it back from memory instead of cache.
-  constexpr std::size_t kWave = 32;
+  // read it back from memory instead of cache. 64, not 32: with 32 the 33 k dam break's 64 blocks
+  // ran as two waves and its search took 1.07x as long on a quiet machine (0.2 ms per step);
+  // with 64 it is one wave, as fast as before, and the 195 k peak is 482 instead of 461 B per
+  // fluid particle (769 before the waves; docs/performance.md).
+  constexpr std::size_t kWave = 64;
   const std::size_t blocks = (n + kBlock - 1) / kBlock;
   const std::size_t slots = std::min(blocks, kWave);
   // Every row's count is written below, so the offsets need no clearing; resize (not assign)
