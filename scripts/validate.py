@@ -655,17 +655,15 @@ def hydrostatic(run, depth, t_from, width=None):
     dd = top - z
     ref = RHO0 * G * dd
     sel = dd > 2 * s
-    slope = float(np.sum(p[sel] * ref[sel]) / np.sum(ref[sel] ** 2))
+
+    def slope_of(m):  # least squares of p against rho0 g d through the origin over the samples m
+        return float(np.sum(p[m] * ref[m]) / np.sum(ref[m] ** 2)) if np.any(m) else float("nan")
+
+    slope = slope_of(sel)
     slope_wall = slope_interior = float("nan")
     if width is not None:
         wall = np.concatenate(walls)
-        for name, m in (("wall", sel & (wall < s)), ("interior", sel & (wall >= 2 * s))):
-            if np.any(m):
-                v = float(np.sum(p[m] * ref[m]) / np.sum(ref[m] ** 2))
-                if name == "wall":
-                    slope_wall = v
-                else:
-                    slope_interior = v
+        slope_wall, slope_interior = slope_of(sel & (wall < s)), slope_of(sel & (wall >= 2 * s))
     rms = float(np.sqrt(np.mean((p[sel] - ref[sel]) ** 2)) / (RHO0 * G * depth))
     bins = np.linspace(0, depth, 21)
     centres, means = [], []

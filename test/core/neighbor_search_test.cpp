@@ -29,6 +29,14 @@ std::vector<std::vector<Index>> bruteForce(const std::vector<Vec3>& q, const std
   return out;
 }
 
+/// The points inside `grid` in its sorted order (grid.build(pts) done).
+std::vector<Vec3> inGridOrder(const UniformGrid& grid, const std::vector<Vec3>& pts)
+{
+  std::vector<Vec3> sorted(grid.numInside());
+  for (std::size_t k = 0; k < sorted.size(); ++k) sorted[k] = pts[grid.order()[k]];
+  return sorted;
+}
+
 std::vector<std::vector<Index>> rowsOf(const NeighborLists& lists)
 {
   std::vector<std::vector<Index>> out(lists.rows());
@@ -71,8 +79,7 @@ TEST(NeighborSearch, SecondValuePerPairComesFromItsOwnFunction)
   const Real r = Real(0.06);
   UniformGrid grid(Vec3d(-0.5, -0.5, -0.5), Vec3d(0.3, 0.3, 0.3), r, 1);
   grid.build(pts);
-  std::vector<Vec3> sorted(grid.numInside());
-  for (std::size_t k = 0; k < sorted.size(); ++k) sorted[k] = pts[grid.order()[k]];
+  const std::vector<Vec3> sorted = inGridOrder(grid, pts);
   NeighborLists lists;
   // First without a second function, so that the staging already exists when weights start.
   buildNeighborLists(
@@ -115,8 +122,7 @@ TEST(NeighborSearch, CrossQueryWithIdsAndLargerRadiusEqualsBruteForce)
   const Real cell = Real(0.04);
   UniformGrid grid(Vec3d(-0.5, -0.5, -0.5), Vec3d(0.3, 0.3, 0.3), cell, 1);
   grid.build(pts);
-  std::vector<Vec3> sorted(grid.numInside());
-  for (std::size_t k = 0; k < sorted.size(); ++k) sorted[k] = pts[grid.order()[k]];
+  const std::vector<Vec3> sorted = inGridOrder(grid, pts);
   for (Real r : {Real(0.04), Real(0.06), Real(0.03)})  // 1.5 cells needs a reach of 2
   {
     NeighborLists lists;
@@ -136,8 +142,7 @@ TEST(NeighborSearch, RowsStayRightOverSeveralWavesAndAChangingQueryCount)
   const Real r = Real(0.06);
   UniformGrid grid(Vec3d(-0.5, -0.5, -0.5), Vec3d(0.3, 0.3, 0.3), r, 1);
   grid.build(pts);
-  std::vector<Vec3> sorted(grid.numInside());
-  for (std::size_t k = 0; k < sorted.size(); ++k) sorted[k] = pts[grid.order()[k]];
+  const std::vector<Vec3> sorted = inGridOrder(grid, pts);
   NeighborLists lists;
   for (std::size_t count : {70000u, 9000u, 68000u})
   {
