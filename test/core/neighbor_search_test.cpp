@@ -231,3 +231,85 @@ TEST(NeighborSearch, SeveralPointSetsEqualOneSearchOverTheirUnion)
     }
   }
 }
+
+TEST(NeighborSearch, PairSquaredDistanceGivesTheSearchsValueBitForBit)
+{
+  // The fluid-fluid lists store no W: the density pass and XSPH recompute it from the positions
+  // with pairSquaredDistance, which must give exactly the r^2 the search saw (in the same order
+  // of operations as its vector path), or densities would change with the storage choice.
+  const std::vector<Vec3> pts = randomPoints(4000, 11);
+  const Real r = Real(0.06);
+  UniformGrid grid(Vec3d(-0.5, -0.5, -0.5), Vec3d(0.3, 0.3, 0.3), r, 1);
+  grid.build(pts);
+  const std::vector<Vec3> sorted = inGridOrder(grid, pts);
+  GridPoints self;
+  self.grid = &grid;
+  self.sorted = sorted.data();
+  self.count = sorted.size();
+  std::vector<Real> soa;
+  toCoordinateArrays(sorted, soa);
+  if (kSearchReadsCoordinateArrays) self.soa = soa.data();
+  NeighborLists lists;
+  buildNeighborLists(
+      sorted, std::vector<GridPoints>{self}, r, true, [](Real d2) { return d2; }, NoPairValue{}, lists);
+  ASSERT_GT(lists.pairs(), 10000u);
+  EXPECT_TRUE(lists.weight.empty());
+  std::size_t differ = 0;
+  for (std::size_t i = 0; i < lists.rows(); ++i)
+    for (Index k = lists.offset[i]; k < lists.offset[i + 1]; ++k)
+    {
+      const Vec3 d = sorted[i] - sorted[lists.index[k]];
+      differ += pairSquaredDistance(d.x(), d.y(), d.z()) != lists.grad_factor[k];
+    }
+  EXPECT_EQ(differ, 0u) << "of " << lists.pairs() << " pairs";
+}
+
+TEST(NeighborSearch, AGridNeverBuiltHoldsNoPoints)
+{
+  // A grid allocates its cells at its first build (a scene without moving bodies never builds
+  // their grid): before that it is a valid, empty grid.
+  UniformGrid grid(Vec3d(-0.5, -0.5, -0.5), Vec3d(0.3, 0.3, 0.3), 0.05, 1);
+  int ranges = 0;
+  grid.forEachRange(Vec3(0, 0, 0), 1, [&](Index, Index) { ++ranges; });
+  EXPECT_EQ(ranges, 0);
+  EXPECT_EQ(grid.numInside(), 0u);
+  EXPECT_EQ(grid.cellOf(Vec3(0, 0, 0)) == UniformGrid::kOutside, false);
+  grid.build({Vec3(0, 0, 0), Vec3(Real(0.01), 0, 0)});
+  grid.forEachRange(Vec3(0, 0, 0), 1, [&](Index begin, Index end) { ranges += int(end - begin); });
+  EXPECT_EQ(ranges, 2);
+}
+
+TEST(NeighborSearch, RowSumIsTheSumOfTheStoredValuesInRowOrder)
+{
+  // The density (Eq. A1) takes the fluid-fluid W summed per row by the search (RowSum) instead of
+  // the stored values: the same rows, no per-pair array, and each sum equal to adding the values
+  // a stored build gives, in row order, bit for bit. Three waves of blocks, rebuilt with fewer
+  // queries (the staging holds one row at a time).
+  const std::vector<Vec3> pts = randomPoints(2000, 8);
+  const Real r = Real(0.06);
+  UniformGrid grid(Vec3d(-0.5, -0.5, -0.5), Vec3d(0.3, 0.3, 0.3), r, 1);
+  grid.build(pts);
+  const std::vector<Vec3> sorted = inGridOrder(grid, pts);
+  auto w = [](Real d2) { return Real(1) / (Real(1) + d2); };
+  NeighborLists stored, summed;
+  for (std::size_t count : {70000u, 5000u})
+  {
+    const std::vector<Vec3> queries = randomPoints(count, unsigned(count + 1));
+    buildNeighborLists(
+        queries, grid, sorted, grid.order(), r, false, [](Real d2) { return d2; }, w, stored);
+    buildNeighborLists(
+        queries, grid, sorted, grid.order(), r, false, [](Real d2) { return d2; }, rowSum(w), summed);
+    ASSERT_TRUE(summed.weight.empty());
+    ASSERT_EQ(summed.weight_sum.size(), queries.size());
+    ASSERT_EQ(summed.offset, stored.offset);
+    ASSERT_EQ(summed.index, stored.index);
+    std::size_t differ = 0;
+    for (std::size_t i = 0; i < queries.size(); ++i)
+    {
+      Real sum = 0;
+      for (Index k = stored.offset[i]; k < stored.offset[i + 1]; ++k) sum += stored.weight[k];
+      differ += sum != summed.weight_sum[i];
+    }
+    EXPECT_EQ(differ, 0u) << count << " queries";
+  }
+}

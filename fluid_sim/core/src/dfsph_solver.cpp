@@ -12,9 +12,6 @@ namespace fluid_sim
 {
 namespace
 {
-using Vec4 = Eigen::Matrix<Real, 4, 1>;  // a Vec3 padded with a 0 for packed arithmetic
-using Vec4Array = std::vector<Vec4, Eigen::aligned_allocator<Vec4>>;
-
 template <class Method>
 class DfsphSolver final : public PressureSolver
 {
@@ -89,6 +86,14 @@ public:
     });
   }
 
+  ForceScratch forceScratch() override
+  {
+    // Between the solves: v4_ is padded again by the density solve's density rate, a4_ written by
+    // its first a^p, and p_over_rho2_ by that a^p too (the divergence solve's wrenches, its last
+    // reader, are added before the non-pressure forces).
+    return ForceScratch{v4_, a4_, p_over_rho2_};
+  }
+
   double boundaryPressureWork() const override
   {
     // sum_i m wall_dv_i . v_i(t + dt): the displacement of the step is dt v(t + dt).
@@ -146,7 +151,9 @@ private:
     diagonal_.resize(n);
     density_rate_.resize(n);
     grad_b_.resize(n);
-    if constexpr (Method::kExtrapolated) gsum_.resize(n);
+    // The extrapolations keep gsum_i for Eq. A4b in a4_, which holds nothing until the divergence
+    // solve's first a^p (12 B per particle less than an array of its own).
+    if constexpr (Method::kExtrapolated) a4_.resize(n);
     source_.resize(n);
     wall_dv_.assign(n, Vec3::Zero());  // a new step: the wall-work record restarts at zero
     padPositions();
@@ -158,12 +165,12 @@ private:
     parallelFor(n, [&](std::size_t i) {
       const Vec3 xi = fluid_.x[i], vi = fluid_.v[i];
       const Vec4 xi4 = x4_[i], vi4 = v4_[i];
-      Real density = mass_ * w0;
+      // Eq. A1: the fluid neighbours' sum of W comes from the search (the lists store no W).
+      Real density = mass_ * (w0 + ff_.weight_sum[i]);
       Vec4 gf4 = Vec4::Zero(), sq4 = Vec4::Zero(), rate4 = Vec4::Zero();
       for (Index k = ff_.offset[i]; k < ff_.offset[i + 1]; ++k)
       {
         const Index j = ff_.index[k];
-        density += mass_ * ff_.weight[k];
         const Vec4 g = ff_.grad_factor[k] * (xi4 - x4_[j]);
         gf4 += g;
         sq4 += g.cwiseProduct(g);
@@ -187,7 +194,7 @@ private:
       density_rate_[i] = rate;
       grad_b_[i] = gb;
       const Vec3 gsum = mass_ * gf + gb;
-      if constexpr (Method::kExtrapolated) gsum_[i] = gsum;
+      if constexpr (Method::kExtrapolated) a4_[i] << gsum, Real(0);
       diagonal_[i] = -(gsum.squaredNorm() + mass_ * mass_ * sq) / (density * density);
       method_.addDiagonalFeedback(diagonal_[i], gb, gsum);
       if (-diagonal_[i] < 1e-6 * reference_diagonal_) diagonal_[i] = 0;  // lone particle: no pressure
@@ -208,21 +215,32 @@ private:
     const std::size_t n = fluid_.size();
     const bool use = scene_.solver.diagonal_feedback;
     const Real inv_rho0_sq = Real(1) / (rho0_ * rho0_);
-    feedback_ratio_.resize(n);
-    parallelFor(n, [&](std::size_t i) {
-      feedback_ratio_[i] = 1;
-      if (fb_.offset[i] == fb_.offset[i + 1] || diagonal_[i] == 0) return;
-      const Vec3 f = method_.feedbackVector(i, fluid_.x[i]);           // kg/m^4
-      const Real with = diagonal_[i] - f.dot(gsum_[i]) * inv_rho0_sq;  // 1/m^2 (as A_i)
-      feedback_ratio_[i] = with / diagonal_[i];
-      if (use) diagonal_[i] = std::min(diagonal_[i], with);
-    });
-    feedback_ratio_min_ = feedback_ratio_max_ = 1.0;
-    for (std::size_t i = 0; i < n; ++i)
+    // The ratios' extremes as a reduction (min and max are exact in any order): no array.
+    struct Range
     {
-      feedback_ratio_min_ = std::min(feedback_ratio_min_, double(feedback_ratio_[i]));
-      feedback_ratio_max_ = std::max(feedback_ratio_max_, double(feedback_ratio_[i]));
-    }
+      double min = 1.0, max = 1.0;
+    };
+    const Range range = parallelDeterministicSum(
+        n, Range{},
+        [&](const tbb::blocked_range<std::size_t>& r, Range& acc) {
+          for (std::size_t i = r.begin(); i != r.end(); ++i)
+          {
+            if (fb_.offset[i] == fb_.offset[i + 1] || diagonal_[i] == 0) continue;
+            const Vec3 f = method_.feedbackVector(i, fluid_.x[i]);       // kg/m^4
+            const Vec3 gsum = a4_[i].template head<3>();                 // kg/m^4, from densityDiagonalAndRate()
+            const Real with = diagonal_[i] - f.dot(gsum) * inv_rho0_sq;  // 1/m^2 (as A_i)
+            const double ratio = double(Real(with / diagonal_[i]));
+            acc.min = std::min(acc.min, ratio);
+            acc.max = std::max(acc.max, ratio);
+            if (use) diagonal_[i] = std::min(diagonal_[i], with);
+          }
+        },
+        [](Range& left, const Range& right) {
+          left.min = std::min(left.min, right.min);
+          left.max = std::max(left.max, right.max);
+        });
+    feedback_ratio_min_ = range.min;
+    feedback_ratio_max_ = range.max;
   }
 
   /// The boundary velocities v_b of the density rate (Eq. A2), m/s: the bodies' own, or zeros
@@ -322,49 +340,74 @@ private:
     });
   }
 
+  /// What a Jacobi sweep sums over the particles: the stopping error's terms (Eq. A9, relative)
+  /// and the largest active residual |s_i - D_i| dt^2/rho0.
+  struct SweepFigures
+  {
+    double error = 0.0, max_residual = 0.0;
+  };
+
   /// One relaxed Jacobi sweep: D_i (Eq. A7), p_i += omega (s_i - D_i)/A_i (Eq. A8). Returns the
   /// stopping error (Eq. A9) of the pressures before this update.
   double jacobiUpdate(std::vector<Real>& p, double dt, bool clamp_p)
   {
     const std::size_t n = fluid_.size();
-    error_.resize(n);
-    if (clamp_p) abs_residual_.resize(n);
     const Real omega = Real(scene_.solver.omega);
     const Real dt2_over_rho0 = Real(dt * dt / rho0_);
     const bool warm = scene_.solver.warm_start;
-    parallelFor(n, [&](std::size_t i) {
-      const Vec4 xi = x4_[i], ai = a4_[i];
-      // Component-wise products summed over the pairs, the three components added once at the end.
-      Vec4 sum = Vec4::Zero();
-      for (Index k = ff_.offset[i]; k < ff_.offset[i + 1]; ++k)
-      {
-        const Index j = ff_.index[k];
-        sum += ff_.grad_factor[k] * (ai - a4_[j]).cwiseProduct(xi - x4_[j]);
-      }
-      Real div = mass_ * sum.sum();
-      div += ai.template head<3>().dot(grad_b_[i]);  // boundary particles are not accelerated by the fluid
-      const Real residual = div - source_[i];
-      // residual > 0: compression left. With a warm start the first guess can also be too high
-      // (a stale pressure on a particle that no longer needs it) and then residual < 0 is an
-      // error too, so wherever a pressure acts its |residual| counts; from zero (cold start) the
-      // iteration approaches from below and the positive part is the error (DFSPH's measure).
-      const Real counted = (warm && p[i] != 0) ? std::abs(residual) : std::max(residual, Real(0));
-      error_[i] = counted * dt2_over_rho0;
-      if (diagonal_[i] != 0)
-      {
-        Real next = p[i] - omega * residual / diagonal_[i];
-        p[i] = clamp_p ? std::max(next, Real(0)) : next;
-      }
-      // The residual figure counts where the constraint is active: compression left, or a
-      // pressure acting. A particle below rest density with its pressure clamped at zero (the free
-      // surface, a splash) has a residual no pressure can or should remove; counted, it hid every
-      // other residual (a surface particle missing its upper neighbour plane, 0.15 rho0 short,
-      // gave 0.1495 at every iteration of every step).
-      if (clamp_p) abs_residual_[i] = (residual > 0 || p[i] > 0) ? std::abs(residual) * dt2_over_rho0 : Real(0);
-    });
+    // The sweep is itself the reduction of its two figures, the error sum (Eq. A9) and the largest
+    // active residual, in the chunks and order of parallelSum: the same sums as from per-particle
+    // arrays, without the arrays (8 B per particle).
+    const SweepFigures figures = parallelDeterministicSum(
+        n, SweepFigures{},
+        [&](const tbb::blocked_range<std::size_t>& range, SweepFigures& acc) {
+          for (std::size_t i = range.begin(); i != range.end(); ++i)
+            sweep(i, p, clamp_p, omega, dt2_over_rho0, warm, acc);
+        },
+        [](SweepFigures& left, const SweepFigures& right) {
+          left.error += right.error;
+          left.max_residual = std::max(left.max_residual, right.max_residual);
+        });
     if (clamp_p)  // the density solve: its largest residual per iteration for the step report
-      density_residual_max_.push_back(float(parallelMax(n, [&](std::size_t i) { return abs_residual_[i]; })));
-    return parallelSum(n, [&](std::size_t i) { return double(error_[i]); }) / double(std::max<std::size_t>(n, 1));
+      density_residual_max_.push_back(float(figures.max_residual));
+    return figures.error / double(std::max<std::size_t>(n, 1));
+  }
+
+  /// Particle i's part of jacobiUpdate(): D_i, the pressure update, and its error and residual
+  /// figures added to `acc`.
+  void sweep(std::size_t i, std::vector<Real>& p, bool clamp_p, Real omega, Real dt2_over_rho0, bool warm,
+             SweepFigures& acc)
+  {
+    const Vec4 xi = x4_[i], ai = a4_[i];
+    // Component-wise products summed over the pairs, the three components added once at the end.
+    Vec4 sum = Vec4::Zero();
+    for (Index k = ff_.offset[i]; k < ff_.offset[i + 1]; ++k)
+    {
+      const Index j = ff_.index[k];
+      sum += ff_.grad_factor[k] * (ai - a4_[j]).cwiseProduct(xi - x4_[j]);
+    }
+    Real div = mass_ * sum.sum();
+    div += ai.template head<3>().dot(grad_b_[i]);  // boundary particles are not accelerated by the fluid
+    const Real residual = div - source_[i];
+    // residual > 0: compression left. With a warm start the first guess can also be too high
+    // (a stale pressure on a particle that no longer needs it) and then residual < 0 is an
+    // error too, so wherever a pressure acts its |residual| counts; from zero (cold start) the
+    // iteration approaches from below and the positive part is the error (DFSPH's measure).
+    const Real counted = (warm && p[i] != 0) ? std::abs(residual) : std::max(residual, Real(0));
+    acc.error += double(Real(counted * dt2_over_rho0));
+    if (diagonal_[i] != 0)
+    {
+      Real next = p[i] - omega * residual / diagonal_[i];
+      p[i] = clamp_p ? std::max(next, Real(0)) : next;
+    }
+    // The residual figure counts where the constraint is active: compression left, or a
+    // pressure acting. A particle below rest density with its pressure clamped at zero (the free
+    // surface, a splash) has a residual no pressure can or should remove; counted, it hid every
+    // other residual (a surface particle missing its upper neighbour plane, 0.15 rho0 short,
+    // gave 0.1495 at every iteration of every step).
+    if (clamp_p)
+      acc.max_residual =
+          std::max(acc.max_residual, double((residual > 0 || p[i] > 0) ? std::abs(residual) * dt2_over_rho0 : Real(0)));
   }
 
   /// Iterates a solve; on return a4 holds the final pressure acceleration, with p_b recomputed
@@ -438,20 +481,18 @@ private:
   double reference_diagonal_;  // 1/m^2, |A_i| of a full neighbourhood (Eq. A4)
 
   // Per-step scratch, in the order of the current (sorted) particles.
-  std::vector<Real> diagonal_;        // 1/m^2, A_i of Eq. A4: D_i changes by A_i kg/m^3/s^2 per Pa of p_i
-  std::vector<Real> density_rate_;    // kg/m^3/s, Eq. A2
-  std::vector<Real> source_;          // kg/m^3/s^2, s_i of Eq. A5 or A6
-  std::vector<Real> p_over_rho2_;     // p_i/rho_i^2 of the last a^p evaluation, m^5/(kg s^2)
-  std::vector<Real> error_;           // per-particle term of Eq. A9 (relative)
-  std::vector<Vec3> grad_b_;          // kg/m^4, sum_b psi_b grad W_ib
-  std::vector<Vec3> gsum_;            // kg/m^4, m sum_j grad W_ij + grad_b (extrapolations: for Eq. A4b)
-  std::vector<Real> feedback_ratio_;  // A_i with Eq. A4b over A_i without (scratch)
-  double feedback_ratio_min_ = 1.0, feedback_ratio_max_ = 1.0;
-  std::vector<Real> abs_residual_;           // |s_i - D_i| dt^2/rho0 of the density solve's sweep (scratch)
-  std::vector<float> density_residual_max_;  // per density-solve iteration, the largest of abs_residual_
-  Vec4Array x4_, v4_, a4_;                   // m, m/s, m/s^2: x, v and a^p padded to 4 components
-  std::vector<Vec3> wall_dv_;                // m/s, this step's velocity change from the p_b wall term
-  std::vector<Vec3> still_wall_;             // m/s, zeros (diagnostic: walls still in Eq. A2)
+  std::vector<Real> diagonal_;      // 1/m^2, A_i of Eq. A4: D_i changes by A_i kg/m^3/s^2 per Pa of p_i
+  std::vector<Real> density_rate_;  // kg/m^3/s, Eq. A2
+  std::vector<Real> source_;        // kg/m^3/s^2, s_i of Eq. A5 or A6
+  std::vector<Real> p_over_rho2_;   // p_i/rho_i^2 of the last a^p evaluation, m^5/(kg s^2)
+  std::vector<Vec3> grad_b_;        // kg/m^4, sum_b psi_b grad W_ib
+  double feedback_ratio_min_ = 1.0, feedback_ratio_max_ = 1.0;  // A_i with Eq. A4b over A_i without
+  std::vector<float> density_residual_max_;  // per density-solve iteration, the largest |s_i - D_i| dt^2/rho0
+  // m, m/s, m/s^2: x, v and a^p padded to 4 components. Before the divergence solve a4_ holds
+  // gsum_i = m sum_j grad W_ij + grad_b (kg/m^4, the extrapolations' Eq. A4b).
+  Vec4Array x4_, v4_, a4_;
+  std::vector<Vec3> wall_dv_;     // m/s, this step's velocity change from the p_b wall term
+  std::vector<Vec3> still_wall_;  // m/s, zeros (diagnostic: walls still in Eq. A2)
 };
 }  // namespace
 

@@ -18,21 +18,31 @@ Neighborhoods::Neighborhoods(const SceneConfig& scene, const CubicKernel& kernel
 {
 }
 
-void Neighborhoods::BoundaryGroup::rebuild(const std::vector<Vec3>& x, std::uint64_t new_version)
+void Neighborhoods::BoundaryGroup::rebuild(const std::vector<Vec3>& x, std::uint64_t new_version, bool keep_gathered)
 {
   gathered.resize(members.size());
   for (std::size_t k = 0; k < members.size(); ++k) gathered[k] = x[members[k]];
   grid.build(gathered);
   const std::size_t inside = grid.numInside();  // points outside the grid are never visited
-  sorted.resize(inside);
   ids.resize(inside);
-  for (std::size_t k = 0; k < inside; ++k)
+  for (std::size_t k = 0; k < inside; ++k) ids[k] = members[grid.order()[k]];
+  if constexpr (kSearchReadsCoordinateArrays)
   {
-    const Index g = grid.order()[k];
-    sorted[k] = gathered[g];
-    ids[k] = members[g];
+    soa.resize(3 * inside);
+    for (std::size_t k = 0; k < inside; ++k)
+    {
+      const Vec3& p = gathered[grid.order()[k]];
+      soa[k] = p.x();
+      soa[inside + k] = p.y();
+      soa[2 * inside + k] = p.z();
+    }
   }
-  toCoordinateArrays(sorted, soa);
+  else
+  {
+    sorted.resize(inside);
+    for (std::size_t k = 0; k < inside; ++k) sorted[k] = gathered[grid.order()[k]];
+  }
+  if (!keep_gathered) std::vector<Vec3>().swap(gathered);
   version = new_version;
 }
 
@@ -40,10 +50,10 @@ GridPoints Neighborhoods::BoundaryGroup::points() const
 {
   GridPoints p;
   p.grid = &grid;
-  p.sorted = sorted.data();
-  p.soa = soa.data();
+  p.sorted = sorted.empty() ? nullptr : sorted.data();
+  p.soa = soa.empty() ? nullptr : soa.data();
   p.ids = ids.data();
-  p.count = sorted.size();
+  p.count = ids.size();  // the points inside the grid, in either form
   return p;
 }
 
@@ -52,7 +62,7 @@ GridPoints Neighborhoods::fluidPoints(const FluidParticles& fluid) const
   GridPoints p;
   p.grid = &fluid_grid_;
   p.sorted = fluid.x.data();
-  p.soa = fluid_soa_.size() == 3 * fluid.size() ? fluid_soa_.data() : nullptr;
+  p.soa = kSearchReadsCoordinateArrays && fluid_soa_.size() == 3 * fluid.size() ? fluid_soa_.data() : nullptr;
   p.count = fluid.size();
   return p;
 }
@@ -66,13 +76,17 @@ void Neighborhoods::sortFluid(FluidParticles& fluid)
 void Neighborhoods::build(const FluidParticles& fluid, const BodySet& bodies)
 {
   const CubicKernel& kern = kernel_;
-  // grad W(r) = grad_factor * r (1/m^5) and W(r) (1/m^3) per pair: the density and XSPH passes
-  // then need no square root and, for XSPH, no position gather per pair (+4 B per pair).
+  // grad W(r) = grad_factor * r (1/m^5) per pair, read in every pass of both solves. W(r) (1/m^3)
+  // per pair only for the fluid-boundary pairs; of the fluid-fluid W the density (Eq. A1) needs
+  // only each row's sum, which the search adds up while the values are at hand, and XSPH, once per
+  // step, computes them again (fluidPairWeights): storing them cost 4 B per pair, 114 B per fluid
+  // particle at 1 M (docs/performance.md).
   auto gradFactor = [&kern](Real d2) -> Real { return kern.gradFactor(std::sqrt(d2)); };
   auto weight = [&kern](Real d2) -> Real { return kern.W(std::sqrt(d2)); };
-  // After the sort the grid's sorted positions are the particle indices themselves.
-  toCoordinateArrays(fluid.x, fluid_soa_);
-  buildNeighborLists(fluid.x, std::vector<GridPoints>{fluidPoints(fluid)}, support_, true, gradFactor, weight,
+  // After the sort the grid's sorted positions are the particle indices themselves; the search
+  // reads them as x, y, z arrays or straight from fluid.x.
+  if constexpr (kSearchReadsCoordinateArrays) toCoordinateArrays(fluid.x, fluid_soa_);
+  buildNeighborLists(fluid.x, std::vector<GridPoints>{fluidPoints(fluid)}, support_, true, gradFactor, rowSum(weight),
                      fluid_fluid);
   if (bodies.numParticles() == 0)
   {
@@ -97,8 +111,11 @@ void Neighborhoods::build(const FluidParticles& fluid, const BodySet& bodies)
   }
   // Each group is sorted again only when one of its bodies wrote new positions: static walls
   // once, a moving robot link every step it moves, without the walls.
-  if (static_group_.version != bodies.staticVersion()) static_group_.rebuild(bodies.x, bodies.staticVersion());
-  if (moving_group_.version != bodies.movingVersion()) moving_group_.rebuild(bodies.x, bodies.movingVersion());
+  // A group without members is never built: its grid's cells are not even allocated.
+  if (!static_group_.members.empty() && static_group_.version != bodies.staticVersion())
+    static_group_.rebuild(bodies.x, bodies.staticVersion(), false);
+  if (!moving_group_.members.empty() && moving_group_.version != bodies.movingVersion())
+    moving_group_.rebuild(bodies.x, bodies.movingVersion(), true);
   std::vector<GridPoints> sources;
   if (!static_group_.members.empty()) sources.push_back(static_group_.points());
   if (!moving_group_.members.empty()) sources.push_back(moving_group_.points());

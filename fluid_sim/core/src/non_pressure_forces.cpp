@@ -2,14 +2,14 @@
 
 #include "fluid_sim/core/non_pressure_forces.h"
 
+#include <algorithm>
+
 #include "fluid_sim/core/parallel.h"
 
 namespace fluid_sim
 {
 namespace
 {
-using Vec4 = Eigen::Matrix<Real, 4, 1>;
-
 /// Eq. A13, one pair: the artificial-viscosity acceleration of i from j (or from a boundary
 /// particle), coefficient nu (m^2/s), neighbour volume (m^3), r = x_i - x_j (m), v_ij (m/s),
 /// grad_factor (1/m^5), eps = 0.01 h^2 (m^2). 2(d + 2) = 10 in three dimensions.
@@ -25,7 +25,7 @@ NonPressureForces::NonPressureForces(const ViscosityConfig& viscosity, const Flu
 }
 
 void NonPressureForces::apply(double dt, FluidParticles& fluid, const Neighborhoods& neighbors, const BodySet& bodies,
-                              BodyWrenches& wrenches)
+                              BodyWrenches& wrenches, ForceScratch scratch)
 {
   const std::size_t n = fluid.size();
   const Real dtr = Real(dt);
@@ -45,30 +45,42 @@ void NonPressureForces::apply(double dt, FluidParticles& fluid, const Neighborho
   const std::vector<Real>& Vb = bodies.volume;
   const Real mass = constants_.mass;
   const Real h = constants_.support;
-  dv_.resize(n);
+  const CubicKernel& kernel = constants_.kernel;
+  const GridPoints points = neighbors.fluidPoints(fluid);  // the positions as the search read them
+  Vec4Array& dv = scratch.dv;
+  std::vector<Real>& volume = scratch.volume;
+  Vec4Array& v4 = scratch.v4;
+  dv.resize(n);
   const Real nu = Real(visc.coefficient), nub = Real(visc.boundary);
   const bool xsph = visc.model == ViscosityModel::Xsph;
   const Real eps = Real(0.01) * h * h;  // m^2
   // Fluid volumes m_j/rho_j (m^3), once per particle rather than a division per pair.
-  volume_.resize(n);
-  parallelFor(n, [&](std::size_t i) { volume_[i] = mass / fluid.rho[i]; });
+  volume.resize(n);
+  parallelFor(n, [&](std::size_t i) { volume[i] = mass / fluid.rho[i]; });
   if (xsph)
   {
-    v4_.resize(n);
-    parallelFor(n, [&](std::size_t i) { v4_[i] << v[i], Real(0); });
+    v4.resize(n);
+    parallelFor(n, [&](std::size_t i) { v4[i] << v[i], Real(0); });
   }
   parallelFor(n, [&](std::size_t i) {
     const Vec3 xi = x[i], vi = v[i];
     Vec3 acc = Vec3::Zero();
     if (xsph)
     {
-      // Eq. A14 with W_ij stored in the lists.
-      const Vec4 vi4 = v4_[i];
+      // Eq. A14; W_ij from the positions (the fluid-fluid lists store no W), W_ib from the lists.
+      const Vec4 vi4 = v4[i];
       Vec4 acc4 = Vec4::Zero();
-      for (Index k = ff.offset[i]; k < ff.offset[i + 1]; ++k)
+      const Index row_end = ff.offset[i + 1];
+      for (Index k0 = ff.offset[i]; k0 < row_end; k0 += kWeightChunk)
       {
-        const Index j = ff.index[k];
-        acc4 -= (nu * volume_[j] * ff.weight[k]) * (vi4 - v4_[j]);
+        const Index m = std::min(kWeightChunk, row_end - k0);
+        Real w[kWeightChunk];  // 1/m^3
+        fluidPairWeights(kernel, xi, points, ff.index.data() + k0, m, w);
+        for (Index t = 0; t < m; ++t)
+        {
+          const Index j = ff.index[k0 + t];
+          acc4 -= (nu * volume[j] * w[t]) * (vi4 - v4[j]);
+        }
       }
       acc = acc4.template head<3>();
       if (nub != 0)
@@ -83,7 +95,7 @@ void NonPressureForces::apply(double dt, FluidParticles& fluid, const Neighborho
       for (Index k = ff.offset[i]; k < ff.offset[i + 1]; ++k)
       {
         const Index j = ff.index[k];
-        acc += artificialViscosity(nu, volume_[j], xi - x[j], vi - v[j], ff.grad_factor[k], eps);
+        acc += artificialViscosity(nu, volume[j], xi - x[j], vi - v[j], ff.grad_factor[k], eps);
       }
       if (nub != 0)
         for (Index k = fb.offset[i]; k < fb.offset[i + 1]; ++k)
@@ -92,7 +104,7 @@ void NonPressureForces::apply(double dt, FluidParticles& fluid, const Neighborho
           acc += artificialViscosity(nub, Vb[b], xi - xb[b], vi - vb[b], fb.grad_factor[k], eps);
         }
     }
-    dv_[i] = xsph ? acc : Vec3(acc * dtr);  // XSPH is a velocity correction, not an acceleration
+    dv[i] << (xsph ? acc : Vec3(acc * dtr)), Real(0);  // XSPH is a velocity correction, not an acceleration
   });
   if (nub > 0 && bodies.size() > 0)
   {
@@ -111,7 +123,7 @@ void NonPressureForces::apply(double dt, FluidParticles& fluid, const Neighborho
         wrenches.torque[body] += (xb[b].cast<double>() - bodies[body].pose.translation).cross(f);
       }
   }
-  parallelFor(n, [&](std::size_t i) { v[i] += dv_[i] + dtr * gravity; });
+  parallelFor(n, [&](std::size_t i) { v[i] += dv[i].head<3>() + dtr * gravity; });
 }
 
 }  // namespace fluid_sim

@@ -114,7 +114,7 @@ struct Simulation::Impl
 
     // 4. Non-pressure accelerations (gravity, Eq. A13 or A14): v** = v* + dt a^np
     //    (non_pressure_forces.cpp).
-    forces.apply(dt, fluid, neighbors, bodies, wrenches);
+    forces.apply(dt, fluid, neighbors, bodies, wrenches, solver->forceScratch());
 
     // 5. Density solve (Eqs. A6-A10, with Eq. 1) with v**.
     {

@@ -12,6 +12,7 @@
 #include "fluid_sim/core/bodies.h"
 #include "fluid_sim/core/boundary_pressure_methods.h"
 #include "fluid_sim/core/fluid_particles.h"
+#include "fluid_sim/core/non_pressure_forces.h"
 #include "fluid_sim/core/simulation.h"
 
 namespace fluid_sim
@@ -32,6 +33,9 @@ public:
   /// Density solve (Eq. A6) with the current velocities v**; leaves the final a^p for integrate().
   /// Adds the pressure forces to `wrenches`.
   virtual void densitySolve(double dt, StepReport& rep, BodyWrenches& wrenches) = 0;
+  /// Work arrays the non-pressure forces may overwrite between the two solves (its own, free
+  /// then): the forces need no arrays of their own (32 B per particle).
+  virtual ForceScratch forceScratch() = 0;
   /// Eq. A16: v(t + dt) = v** + dt a^p, x(t + dt) = x + dt v(t + dt); p_total for output.
   virtual void integrate(double dt) = 0;
   /// J: the work the p_b part of the wall term did on the fluid in this step (diagnostic).

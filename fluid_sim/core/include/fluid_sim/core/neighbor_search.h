@@ -3,6 +3,9 @@
 // Cells are ordered x-fastest, so the three cells of a row along x are one contiguous range of
 // sorted points: a query visits 9 ranges instead of 27 cells.
 
+#include <cmath>
+#include <type_traits>
+#include <utility>
 #include <vector>
 
 #include "fluid_sim/core/types.h"
@@ -39,10 +42,11 @@ public:
   }
 
   /// Calls f(begin, end) for each contiguous range (in sorted order) of points in the cells within
-  /// `reach` cells of p's cell. Nothing when p is outside the grid.
+  /// `reach` cells of p's cell. Nothing when p is outside the grid or the grid was never built.
   template <class F>
   void forEachRange(const Vec3& p, int reach, F&& f) const
   {
+    if (cell_start_.empty()) return;
     const double fx = (double(p.x()) - origin_.x()) * inv_cell_;
     const double fy = (double(p.y()) - origin_.y()) * inv_cell_;
     const double fz = (double(p.z()) - origin_.z()) * inv_cell_;
@@ -66,7 +70,7 @@ private:
   Vec3d origin_;
   double cell_, inv_cell_;
   int dims_[3];
-  std::vector<Index> cell_start_;  // size cells + 1
+  std::vector<Index> cell_start_;  // size cells + 1 once built, empty before
   std::vector<Index> cell_of_point_;
   std::vector<Index> order_;
   std::size_t num_inside_ = 0;
@@ -82,6 +86,7 @@ struct NeighborLists
   std::vector<Index> index;
   std::vector<Real> grad_factor;  // 1/m^5, empty unless built with a PairGradFactor
   std::vector<Real> weight;       // 1/m^3, empty unless built with a PairWeight
+  std::vector<Real> weight_sum;   // per row: the sum of its pairs' weights (1/m^3), empty unless built with a RowSum
   // Per-block staging reused from step to step (kept here so that rebuilding allocates nothing).
   std::vector<std::vector<Index>> scratch_index;
   std::vector<std::vector<Real>> scratch_factor;
@@ -99,8 +104,43 @@ struct NeighborLists
   }
 };
 
+/// r^2 (m^2) of a pair from its coordinate differences (m), in the order of operations the
+/// search's distance test uses: a pass that recomputes a kernel value from positions (the fluid
+/// pairs' W, which the lists do not store) then gets the value the search would have stored.
+inline Real pairSquaredDistance(Real dx, Real dy, Real dz)
+{
+#if defined(__FMA__)
+  return std::fma(dz, dz, std::fma(dy, dy, dx * dx));  // as the AVX-512 path's two fused multiply-adds
+#else
+  return dx * dx + dy * dy + dz * dz;
+#endif
+}
+
 /// Stands for "no such value per pair" in buildNeighborLists (the list's array stays empty).
 struct NoPairValue
+{
+};
+
+/// Asks buildNeighborLists for the sum of a value per pair over each row (out.weight_sum, in row
+/// order) instead of the values themselves (out.weight stays empty): `f(r2) -> Real` from the
+/// squared distance (m^2). The fluid-fluid W is read per pair by XSPH only, and summed per row by
+/// the density (Eq. A1): storing it cost 4 B per pair (docs/performance.md).
+template <class F>
+struct RowSum
+{
+  F f;
+};
+template <class F>
+RowSum<std::decay_t<F>> rowSum(F&& f)
+{
+  return RowSum<std::decay_t<F>>{std::forward<F>(f)};
+}
+template <class T>
+struct IsRowSum : std::false_type
+{
+};
+template <class F>
+struct IsRowSum<RowSum<F>> : std::true_type
 {
 };
 
@@ -117,6 +157,15 @@ struct GridPoints
   std::size_t count = 0;
 };
 
+/// Whether buildNeighborLists reads a point set through its x, y, z arrays (`GridPoints::soa`, the
+/// AVX-512 path for float) or through its sorted positions: a set that is kept from step to step
+/// stores only the form the search reads (12 B per point).
+#if defined(__AVX512F__)
+inline constexpr bool kSearchReadsCoordinateArrays = std::is_same_v<Real, float>;
+#else
+inline constexpr bool kSearchReadsCoordinateArrays = false;
+#endif
+
 /// Fills `soa` (resized to 3 x points.size()) with the points' x, then y, then z coordinates (m).
 void toCoordinateArrays(const std::vector<Vec3>& points, std::vector<Real>& soa);
 
@@ -131,10 +180,10 @@ void buildNeighborLists(const std::vector<Vec3>& queries, const std::vector<Grid
 /// `sorted_points`, i.e. points in grid order; `ids` maps a sorted position to the stored index, or
 /// is empty for identity), all pairs closer than `radius` (m). `pairGradFactor(r2) -> Real` gives
 /// out.grad_factor and `pairWeight(r2) -> Real` out.weight from the squared distance (m^2); either
-/// may be NoPairValue{}. Computing both while r^2 is at hand spares the density and XSPH passes a
-/// square root and a position gather per pair. With `skip_self`, query i never lists point i
-/// (queries and points are the same set, identity ids). Parallel over queries; the result does not
-/// depend on the thread count.
+/// may be NoPairValue{}, and pairWeight may be a RowSum (out.weight_sum). Computing them while r^2
+/// is at hand spares later passes a square root and a position gather per pair. With `skip_self`,
+/// query i never lists point i (queries and points are the same set, identity ids). Parallel over queries; the result
+/// does not depend on the thread count.
 template <class PairGradFactor, class PairWeight>
 void buildNeighborLists(const std::vector<Vec3>& queries, const UniformGrid& grid,
                         const std::vector<Vec3>& sorted_points, const std::vector<Index>& ids, Real radius,

@@ -34,10 +34,23 @@ void buildNeighborLists(const std::vector<Vec3>& queries, const std::vector<Grid
                         bool skip_self, PairGradFactor&& pairGradFactor, PairWeight&& pairWeight, NeighborLists& out)
 {
   constexpr bool kFactor = !std::is_same_v<std::decay_t<PairGradFactor>, NoPairValue>;
-  constexpr bool kWeight = !std::is_same_v<std::decay_t<PairWeight>, NoPairValue>;
-  static_assert(kFactor || kWeight, "buildNeighborLists: ask for at least one value per pair");
+  constexpr bool kRowSum = IsRowSum<std::decay_t<PairWeight>>::value;  // W summed per row, not stored
+  constexpr bool kWeight = !std::is_same_v<std::decay_t<PairWeight>, NoPairValue> && !kRowSum;  // W per pair
+  // W is staged per block when stored, per row when only summed (one row: a few hundred bytes).
+  constexpr bool kStage = kWeight || kRowSum;
+  static_assert(kFactor || kWeight || kRowSum, "buildNeighborLists: ask for at least one value per pair");
   (void)pairGradFactor;
   (void)pairWeight;
+  // The per-pair value function, whether its values are stored or summed per row.
+  auto weightOf = [&pairWeight](Real d2) -> Real {
+    if constexpr (kRowSum)
+      return pairWeight.f(d2);
+    else if constexpr (kWeight)
+      return pairWeight(d2);
+    else
+      return d2;  // not called
+  };
+  (void)weightOf;
   const std::size_t n = queries.size();
   constexpr std::size_t kBlock = 512;
   // Blocks are searched a wave at a time into one staging slot each and copied into the rows
@@ -73,14 +86,10 @@ void buildNeighborLists(const std::vector<Vec3>& queries, const std::vector<Grid
     block_index.resize(slots);
     block_factor.resize(slots);
   }
-  if (kWeight && block_weight.size() < slots) block_weight.resize(slots);
+  if (kStage && block_weight.size() < slots) block_weight.resize(slots);
   auto& block_used = out.scratch_used;
   block_used.resize(std::max(block_used.size(), slots));
-#if defined(__AVX512F__)
-  constexpr bool kVector = std::is_same_v<Real, float>;
-#else
-  constexpr bool kVector = false;
-#endif
+  constexpr bool kVector = kSearchReadsCoordinateArrays;
   // The vector path reads the points as x, y, z arrays (one range's distances are then a vector
   // loop): a set that does not bring its own has them made here. The scalar path reads the
   // sorted positions directly and needs no copy.
@@ -112,6 +121,10 @@ void buildNeighborLists(const std::vector<Vec3>& queries, const std::vector<Grid
   constexpr std::size_t kSlack = 16;  // the vector path stores whole vectors past the cursor
   if constexpr (!kFactor) out.grad_factor.clear();
   if constexpr (!kWeight) out.weight.clear();
+  if constexpr (kRowSum)
+    out.weight_sum.resize(n);
+  else
+    out.weight_sum.clear();
   // The rows' arrays keep their storage from build to build and are cut to this build's pairs at
   // the end. The last build's rows are dead here: when they leave less than 1/16 of room for
   // growth, the arrays are freed and then allocated with 1/4 of room, so that growing copies no
@@ -209,7 +222,8 @@ void buildNeighborLists(const std::vector<Vec3>& queries, const std::vector<Grid
               // initial lattice at the same candidate count.
               for (Index k = begin; k < end; ++k)
               {
-                const Real d2 = (xi - src.sorted[k]).squaredNorm();
+                const Vec3 d = xi - src.sorted[k];
+                const Real d2 = pairSquaredDistance(d.x(), d.y(), d.z());
                 const Index j = id ? id[k] : k;
                 out_j[used] = j;
                 out_d2[used] = d2;
@@ -218,24 +232,35 @@ void buildNeighborLists(const std::vector<Vec3>& queries, const std::vector<Grid
             });
           }
           // Values for the hits only (r^2 is overwritten by the factor in place).
-          if constexpr (kWeight && kFactor)
+          // A row sum's staging holds this row only (from its index 0).
+          const std::size_t w_base = kRowSum ? row_start : 0;
+          if constexpr (kRowSum)
+            if (block_weight[slot].size() < used - row_start) block_weight[slot].resize(2 * (used - row_start));
+          if constexpr (kStage && kFactor)
           {
-            auto& bw = block_weight[slot];
+            Real* const bw = block_weight[slot].data();
             for (std::size_t k = row_start; k < used; ++k)
             {
               const Real d2 = bf[k];
-              bw[k] = pairWeight(d2);
+              bw[k - w_base] = weightOf(d2);
               bf[k] = pairGradFactor(d2);
             }
           }
-          else if constexpr (kWeight)
+          else if constexpr (kStage)
           {
-            auto& bw = block_weight[slot];
-            for (std::size_t k = row_start; k < used; ++k) bw[k] = pairWeight(bf[k]);
+            Real* const bw = block_weight[slot].data();
+            for (std::size_t k = row_start; k < used; ++k) bw[k - w_base] = weightOf(bf[k]);
           }
           else
           {
             for (std::size_t k = row_start; k < used; ++k) bf[k] = pairGradFactor(bf[k]);
+          }
+          if constexpr (kRowSum)  // in row order, one add per pair on values still in cache
+          {
+            const Real* const bw = block_weight[slot].data();
+            Real sum = 0;
+            for (std::size_t k = 0; k < used - row_start; ++k) sum += bw[k];
+            out.weight_sum[i] = sum;
           }
           out.offset[i + 1] = Index(used - row_start);
         }

@@ -13,6 +13,16 @@
 
 namespace fluid_sim
 {
+/// Per-particle work arrays for NonPressureForces::apply(), which resizes and overwrites them; they
+/// carry nothing into or out of it. The pressure solver lends its own, free between its two
+/// solves, so the forces hold no arrays (32 B per particle less at the step's peak).
+struct ForceScratch
+{
+  Vec4Array& v4;              // m/s, v* padded (XSPH)
+  Vec4Array& dv;              // m/s, the viscosity's velocity change of the step, padded
+  std::vector<Real>& volume;  // m^3, m_j/rho_j per particle
+};
+
 class NonPressureForces
 {
 public:
@@ -20,16 +30,13 @@ public:
   NonPressureForces(const ViscosityConfig& viscosity, const FluidConstants& constants);
 
   /// v** = v* + dt a^np for every fluid particle (dt in s). Adds the boundary viscosity's
-  /// reaction on the bodies to `wrenches`.
+  /// reaction on the bodies to `wrenches`. Works in `scratch`.
   void apply(double dt, FluidParticles& fluid, const Neighborhoods& neighbors, const BodySet& bodies,
-             BodyWrenches& wrenches);
+             BodyWrenches& wrenches, ForceScratch scratch);
 
 private:
   const ViscosityConfig& viscosity_;
   const FluidConstants& constants_;
-  std::vector<Vec3> dv_;      // m/s, velocity change of the step from viscosity (scratch)
-  std::vector<Real> volume_;  // m^3, m_j/rho_j per particle (scratch)
-  std::vector<Eigen::Matrix<Real, 4, 1>, Eigen::aligned_allocator<Eigen::Matrix<Real, 4, 1>>> v4_;  // m/s, padded
 };
 
 }  // namespace fluid_sim

@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 namespace fluid_sim
 {
@@ -16,6 +17,8 @@ using Real = float;
 #endif
 
 using Vec3 = Eigen::Matrix<Real, 3, 1>;
+using Vec4 = Eigen::Matrix<Real, 4, 1>;  // a Vec3 padded with a 0 for packed arithmetic
+using Vec4Array = std::vector<Vec4, Eigen::aligned_allocator<Vec4>>;
 using Mat3 = Eigen::Matrix<Real, 3, 3>;
 using Vec3d = Eigen::Vector3d;
 using Mat3d = Eigen::Matrix3d;
