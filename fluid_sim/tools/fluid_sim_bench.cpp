@@ -63,6 +63,7 @@ struct Row
   std::string unstable_reason;             // first reason seen
   long peak_rss_kib = 0;                   // KiB, process peak so far
   double peak_bytes_per_particle = 0.0;    // B, process peak RSS / (fluid + boundary)
+  double peak_bytes_per_fluid = 0.0;       // B, process peak RSS / fluid (issue 14's measure)
 };
 
 long peakRssKib()
@@ -168,16 +169,18 @@ Row runOne(const fluid_sim::SceneConfig& scene, int warmup, int steps)
   const std::size_t particles = row.fluid + row.boundary;
   row.peak_bytes_per_particle =
       particles > 0 ? static_cast<double>(row.peak_rss_kib) * 1024.0 / static_cast<double>(particles) : 0.0;
+  row.peak_bytes_per_fluid =
+      row.fluid > 0 ? static_cast<double>(row.peak_rss_kib) * 1024.0 / static_cast<double>(row.fluid) : 0.0;
   return row;
 }
 
 void printHeader()
 {
-  std::printf("%8s %-9s %9s %9s %7s %9s %9s %7s %6s %7s %7s %10s %7s %8s %8s %10s %9s %7s\n", "spacing", "method",
+  std::printf("%8s %-9s %9s %9s %7s %9s %9s %7s %6s %7s %7s %10s %7s %8s %8s %10s %9s %9s %7s\n", "spacing", "method",
               "fluid", "boundary", "setup", "ms/step", "median", "dt", "rtf", "div_it", "dens_it", "ns/(p*it)",
-              "pairs/p", "ns/pair", "nbr_ms", "dens_err", "peak_B/p", "flags");
-  std::printf("%8s %-9s %9s %9s %7s %9s %9s %7s %6s %7s %7s %10s %7s %8s %8s %10s %9s %7s\n", "m", "", "", "", "s",
-              "mean", "", "ms", "", "/step", "/step", "ns", "", "/pass", "/step", "mean", "B", "");
+              "pairs/p", "ns/pair", "nbr_ms", "dens_err", "peak_B/p", "peak_B/fl", "flags");
+  std::printf("%8s %-9s %9s %9s %7s %9s %9s %7s %6s %7s %7s %10s %7s %8s %8s %10s %9s %9s %7s\n", "m", "", "", "", "s",
+              "mean", "", "ms", "", "/step", "/step", "ns", "", "/pass", "/step", "mean", "B", "B", "");
   std::fflush(stdout);
 }
 
@@ -189,11 +192,12 @@ void printRow(const Row& r)
   else if (r.not_converged > 0)
     flags = "nc=" + std::to_string(r.not_converged);
   std::printf(
-      "%8.4f %-9s %9zu %9zu %7.2f %9.3f %9.3f %7.3f %6.3f %7.2f %7.2f %10.2f %7.1f %8.3f %8.3f %10.2e %9.0f %7s\n",
+      "%8.4f %-9s %9zu %9zu %7.2f %9.3f %9.3f %7.3f %6.3f %7.2f %7.2f %10.2f %7.1f %8.3f %8.3f %10.2e %9.0f %9.0f "
+      "%7s\n",
       r.spacing, r.method.c_str(), r.fluid, r.boundary, r.setup_s, r.ms_mean, r.ms_median, r.dt_mean * 1e3,
       r.real_time_factor, r.divergence_iterations, r.density_iterations, r.ns_per_particle_iteration,
       r.pairs_per_particle, r.ns_per_pair_pass, r.ms_neighbors, r.density_error, r.peak_bytes_per_particle,
-      flags.c_str());
+      r.peak_bytes_per_fluid, flags.c_str());
   std::fflush(stdout);
 }
 
@@ -224,7 +228,8 @@ nlohmann::json toJson(const Row& r)
                         {"steps_unstable", r.unstable},
                         {"unstable_reason", r.unstable_reason},
                         {"process_peak_rss_kib", r.peak_rss_kib},
-                        {"peak_bytes_per_particle", r.peak_bytes_per_particle}};
+                        {"peak_bytes_per_particle", r.peak_bytes_per_particle},
+                        {"peak_bytes_per_fluid_particle", r.peak_bytes_per_fluid}};
 }
 
 std::string findDefaultScene()
@@ -330,7 +335,8 @@ int main(int argc, char** argv)
       "(pairs x iterations x 2 passes);\nnbr_ms: neighbour search per step; dens_err: mean relative density error; "
       "peak_B/p: PROCESS "
       "peak RSS\n(getrusage ru_maxrss, monotone over the run: later rows include earlier ones) / (fluid + boundary "
-      "particles);\nflags: ok | nc=N (steps with a solve at max_iterations) | UNSTABLE.\n\n");
+      "particles); peak_B/fl: the same / fluid particles;\nflags: ok | nc=N (steps with a solve at max_iterations) | "
+      "UNSTABLE.\n\n");
   printHeader();
 
   nlohmann::json json_rows = nlohmann::json::array();
