@@ -64,6 +64,31 @@ TEST(Simulation, FluidInsideSolidsOrOutsideContainersIsRemovedAndCounted)
   for (const Vec3& x : sim.positions()) EXPECT_GE((x.cast<double>() - Vec3d(0.1, 0.1, 0.1)).norm(), 0.06);
 }
 
+TEST(Simulation, WaterFallingOutOfTheDomainIsRemovedStepByStepAndCounted)
+{
+  // No container: the block falls out through the domain's floor (0.2 m below it). Steps where
+  // nothing leaves remove nothing (and make no mask); the others remove exactly the particles
+  // below the floor, and the counts add up.
+  SceneConfig s = test::smallScene();
+  Simulation sim(s);
+  const std::size_t start = sim.numFluidParticles();
+  std::size_t removed = 0, quiet_steps = 0, removing_steps = 0;
+  while (sim.time() < 0.6 && sim.numFluidParticles() > 0)
+  {
+    const std::size_t before = sim.numFluidParticles();
+    const StepReport rep = sim.step();
+    ASSERT_FALSE(rep.unstable) << rep.reason;
+    EXPECT_EQ(sim.numFluidParticles() + rep.removed, before);
+    (rep.removed == 0 ? quiet_steps : removing_steps) += 1;
+    removed += rep.removed;
+    for (const Vec3& x : sim.positions()) ASSERT_GE(x.z(), Real(-0.2));
+  }
+  EXPECT_GT(quiet_steps, 0u);
+  EXPECT_GT(removing_steps, 0u);
+  EXPECT_EQ(removed, start);  // 0.2 m of free fall take 0.2 s: all of it has left by 0.6 s
+  EXPECT_EQ(sim.removedTotal(), start);
+}
+
 TEST(Simulation, ExplicitParticlesAreAddedAsTheyAreWithoutThoseTheLatticeOrTheStepWouldDrop)
 {
   SceneConfig s = smallScene();  // a lattice block of 4 x 4 x 4 first

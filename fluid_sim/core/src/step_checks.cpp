@@ -46,6 +46,9 @@ std::size_t removeOutsideDomain(FluidParticles& fluid, const AxisBox& domain)
 {
   const Vec3 lo = domain.min.cast<Real>(), hi = domain.max.cast<Real>();
   const std::size_t n = fluid.size();
+  // Counted first: in most steps nothing leaves, and then no mask (1 B per particle) is made.
+  const double outside = parallelSum(n, [&](std::size_t i) { return insideBox(fluid.x[i], lo, hi) ? 0.0 : 1.0; });
+  if (outside == 0.0) return 0;
   std::vector<std::uint8_t> inside(n);
   parallelFor(n, [&](std::size_t i) { inside[i] = insideBox(fluid.x[i], lo, hi); });
   return fluid.keepIf(inside);
