@@ -270,6 +270,22 @@ private:
     parallelFor(fluid_.size(), [&](std::size_t i) { v4_[i] << fluid_.v[i], Real(0); });
   }
 
+  /// sum_j grad_factor_ij (f_i - f_j) . (x_i - x_j) over i's fluid neighbours, for a padded
+  /// per-particle field f: the fluid part of Eq. A2 (f = v, 1/(m^3 s)) and of Eq. A7 (f = a^p,
+  /// 1/(m^3 s^2)), per unit particle mass. Component-wise products summed over the pairs, the
+  /// three components added once at the end.
+  Real fluidDivergence(std::size_t i, const Vec4Array& f) const
+  {
+    const Vec4 xi = x4_[i], fi = f[i];
+    Vec4 sum = Vec4::Zero();
+    for (Index k = ff_.offset[i]; k < ff_.offset[i + 1]; ++k)
+    {
+      const Index j = ff_.index[k];
+      sum += ff_.grad_factor[k] * (fi - f[j]).cwiseProduct(xi - x4_[j]);
+    }
+    return sum.sum();
+  }
+
   /// Eq. A2 with the current velocities, kg/m^3/s.
   void computeDensityRate()
   {
@@ -279,14 +295,7 @@ private:
     const std::vector<Real>& Vb = bodies_.volume;
     parallelFor(fluid_.size(), [&](std::size_t i) {
       const Vec3 xi = fluid_.x[i], vi = fluid_.v[i];
-      const Vec4 xi4 = x4_[i], vi4 = v4_[i];
-      Vec4 sum = Vec4::Zero();
-      for (Index k = ff_.offset[i]; k < ff_.offset[i + 1]; ++k)
-      {
-        const Index j = ff_.index[k];
-        sum += ff_.grad_factor[k] * (vi4 - v4_[j]).cwiseProduct(xi4 - x4_[j]);
-      }
-      Real rate = mass_ * sum.sum();
+      Real rate = mass_ * fluidDivergence(i, v4_);
       for (Index k = fb_.offset[i]; k < fb_.offset[i + 1]; ++k)
       {
         const Index b = fb_.index[k];
@@ -378,16 +387,8 @@ private:
   void sweep(std::size_t i, std::vector<Real>& p, bool clamp_p, Real omega, Real dt2_over_rho0, bool warm,
              SweepFigures& acc)
   {
-    const Vec4 xi = x4_[i], ai = a4_[i];
-    // Component-wise products summed over the pairs, the three components added once at the end.
-    Vec4 sum = Vec4::Zero();
-    for (Index k = ff_.offset[i]; k < ff_.offset[i + 1]; ++k)
-    {
-      const Index j = ff_.index[k];
-      sum += ff_.grad_factor[k] * (ai - a4_[j]).cwiseProduct(xi - x4_[j]);
-    }
-    Real div = mass_ * sum.sum();
-    div += ai.template head<3>().dot(grad_b_[i]);  // boundary particles are not accelerated by the fluid
+    Real div = mass_ * fluidDivergence(i, a4_);
+    div += a4_[i].template head<3>().dot(grad_b_[i]);  // boundary particles are not accelerated by the fluid
     const Real residual = div - source_[i];
     // residual > 0: compression left. With a warm start the first guess can also be too high
     // (a stale pressure on a particle that no longer needs it) and then residual < 0 is an
