@@ -89,6 +89,21 @@ TEST(Simulation, WaterFallingOutOfTheDomainIsRemovedStepByStepAndCounted)
   EXPECT_EQ(sim.removedTotal(), start);
 }
 
+TEST(Neighborhoods, AFluidQueryReachesOneCellEachWayAtEverySpacing)
+{
+  // The fluid grid's cells are the kernel support h: a query visits 3 x 3 x 3 cells. With cells
+  // of 2 s in double and h rounded to float, spacings where the float rounds up (0.0305, 0.017,
+  // 0.016 m, ...) reached two cells each way, 125 cells, and searched 2-3x as long.
+  for (double s : {0.031, 0.0305, 0.025, 0.017, 0.016, 0.014, 0.012, 0.0101, 0.01, 0.0099, 0.02, 0.011})
+  {
+    SceneConfig scene = test::smallScene();
+    scene.spacing = s;
+    const CubicKernel kernel(Real(2.0 * s));
+    const Neighborhoods nb(scene, kernel);
+    EXPECT_EQ(nb.fluidGrid().reachFor(kernel.support()), 1) << "spacing " << s;
+  }
+}
+
 TEST(Simulation, ExplicitParticlesAreAddedAsTheyAreWithoutThoseTheLatticeOrTheStepWouldDrop)
 {
   SceneConfig s = smallScene();  // a lattice block of 4 x 4 x 4 first

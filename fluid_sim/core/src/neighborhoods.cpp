@@ -11,8 +11,12 @@ Neighborhoods::Neighborhoods(const SceneConfig& scene, const CubicKernel& kernel
     , support_(kernel.support())
     // Grid cells of the kernel support h (m): a query visits 9 rows of 3 cells, ~24 candidates
     // each, long enough for the vector path of buildNeighborLists. With cells of one spacing
-    // (25 rows of ~5) the search took 6.5 instead of 4.4 ms per step in bench_dam_break.
-    , fluid_grid_(scene.domain.min, scene.domain.max, 2 * scene.spacing, 2)
+    // (25 rows of ~5) the search took 6.5 instead of 4.4 ms per step in bench_dam_break. The cell
+    // is h as the search's radius holds it (a float), not 2 s in double: where the float rounds
+    // up (s = 0.0305, 0.017 m, ...) h / (2 s) came out a hair above 1, every query reached two
+    // cells each way (125 cells instead of 27) and the search took 2-3x as long
+    // (docs/performance.md).
+    , fluid_grid_(scene.domain.min, scene.domain.max, double(kernel.support()), 2)
     , static_group_(fluid_grid_)
     , moving_group_(fluid_grid_)
 {

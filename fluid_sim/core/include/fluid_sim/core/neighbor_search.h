@@ -40,6 +40,11 @@ public:
   {
     return cell_;
   }
+  /// Cells a query must visit each way to find every point closer than `radius` (m).
+  int reachFor(Real radius) const
+  {
+    return int(std::ceil(double(radius) / cell_ - 1e-9));
+  }
 
   /// Calls f(begin, end) for each contiguous range (in sorted order) of points in the cells within
   /// `reach` cells of p's cell. Nothing when p is outside the grid or the grid was never built.

@@ -73,8 +73,7 @@ void buildNeighborLists(const std::vector<Vec3>& queries, const std::vector<Grid
   const Real r2max = radius * radius;
   // Cells within reach of a query's cell, per set (the sets' grids may differ).
   std::vector<int> reach(sources.size());
-  for (std::size_t s = 0; s < sources.size(); ++s)
-    reach[s] = int(std::ceil(double(radius) / sources[s].grid->cellSize() - 1e-9));
+  for (std::size_t s = 0; s < sources.size(); ++s) reach[s] = sources[s].grid->reachFor(radius);
   // One pass over candidates per block into slot-local lists, then one copy into the CSR rows:
   // a single distance test per candidate instead of a count pass plus a fill pass. The factor
   // staging first holds r^2 (m^2) of every hit.
