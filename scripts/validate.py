@@ -1292,14 +1292,21 @@ def shifted_block(sets, box_min, box_max, dx):
     return sets
 
 
-def cube_sets(method, quick):
-    sets = {"solver.boundary_pressure": method}
+def cube_fluid_top(quick):
+    """The fluid block's max corner (m; its min is the origin): submerged_cube.yaml's (full) or
+    the ctest Buoyancy test's tank, 15 x 15 spacings of 1/70 m and 22 deep (quick)."""
+    s = 1.0 / 70.0
+    return (15 * s, 15 * s, 22 * s) if quick else (0.3, 0.3, 0.4)
+
+
+def cube_sets(method, quick, shift=0.0):
+    """--set values of case 7, the fluid block moved by `shift` m in x (a start)."""
+    sets = shifted_block({"solver.boundary_pressure": method}, (0.0, 0.0, 0.0), cube_fluid_top(quick), shift)
     if quick:
-        # The ctest Buoyancy test's tank: 15 x 15 spacings, 22 deep, the cube 4 spacings from the
-        # side walls and 6 above the floor.
+        # The ctest Buoyancy test's tank: the cube 4 spacings from the side walls and 6 above the
+        # floor.
         s = 1.0 / 70.0
-        sets.update({"fluid[0].box.max": "[%r,%r,%r]" % (15 * s, 15 * s, 22 * s),
-                     "boundaries[0].box.max": "[%r,%r,%r]" % (15 * s, 15 * s, 22 * s + 0.2),
+        sets.update({"boundaries[0].box.max": "[%r,%r,%r]" % (15 * s, 15 * s, 22 * s + 0.2),
                      "boundaries[1].box.min": "[%r,%r,%r]" % (4 * s, 4 * s, 6 * s),
                      "boundaries[1].box.max": "[%r,%r,%r]" % (11 * s, 11 * s, 13 * s)})
     return sets
@@ -1325,13 +1332,9 @@ def case7(S):
         tag = "" if runner == S.runner else "_" + "".join(c if c.isalnum() else "_" for c in label)
         for m in METHODS:
             for k in range(starts):
-                sets = cube_sets(m, S.quick)
+                sets = cube_sets(m, S.quick, k * CUBE_START_SHIFT)
                 name = "case7/%s%s" % (m, tag)
                 if k:
-                    # The fluid block of submerged_cube.yaml (full) or of cube_sets (quick).
-                    q = 1.0 / 70.0
-                    top = (15 * q, 15 * q, 22 * q) if S.quick else (0.3, 0.3, 0.4)
-                    shifted_block(sets, (0.0, 0.0, 0.0), top, k * CUBE_START_SHIFT)
                     name += "_start%d" % k
                 keys.append((label, m, k))
                 specs.append((name, "submerged_cube.yaml", sets, duration, runner))
