@@ -35,6 +35,8 @@ PACKAGES=(
   libdynamic-reconfigure-config-init-mutex-dev python3-dynamic-reconfigure
   libstd-srvs-dev ros-std-srvs python3-std-srvs
   libcli11-dev nlohmann-json3-dev clang-format python3-matplotlib
+  # scripts/yardstick.py (and its ctest self-test) reads scene YAML; the ROS Python packages pull it in too.
+  python3-yaml
 )
 
 # rviz (launch/demo.launch rviz:=true) only where there is a display to show it, or when asked.

@@ -6,6 +6,7 @@
         --sph-bin /path/to/SPlisHSPlasH/bin/SPHSimulator \
         --sph-scene-dir /path/to/SPlisHSPlasH/data/Scenes \
         [--case 0.031:300:3 --case 0.017:60:2] [--rounds 2] [--threads 2] [--out DIR]
+        [--sph-fluid block|rest]
 
 For every case (spacing S in m, N steps of 1 ms) and every round, it runs in turn
   1. ours, cold:  fluid_sim_bench SCENE --spacing S --method all --warmup 0 --steps N --threads T --json F
@@ -25,6 +26,13 @@ box mesh is data/models/UnitBox.obj next to --sph-scene-dir.
 
 SPlisHSPlasH's DFSPH always warm-starts both solves (half the previous step's pressure), so its
 single row per round is compared with both our cold and our warm rows.
+
+SPlisHSPlasH gives a particle of diameter d the volume 0.8 d^3, so its block on our lattice
+(the default, --sph-fluid block, the comparison the issue specified) starts at 0.8 of its rest
+density and lands without pressure; ours starts at rest density. --sph-fluid rest gives it our
+lattice points as a particle file (Partio PDA) with the diameter (1.0758 spacings) that puts that
+lattice at its rest density: the same particles and mass per particle, its kernel then reaching
+1.245x as many neighbours as ours.
 
 Only the Python standard library and PyYAML are used (run with the system interpreter).
 """
@@ -63,14 +71,78 @@ def our_to_theirs(v):
     return [v[0], v[2], v[1]]
 
 
-def sph_scene(our_scene, spacing, unit_box_obj):
-    """The SPlisHSPlasH scene (a dict) for our scene file at `spacing`."""
+# SPlisHSPlasH gives a fluid particle the volume 0.8 d^3 (d = 2 x particleRadius) and samples a
+# fluid block on a cubic lattice of spacing d. Its cubic kernel (support 2d) sums to 1.0000 / d^3
+# over that lattice (0.99997), so its block starts at 0.80 of the rest density and compacts by a
+# fifth with no pressure at all (its density solve's error is exactly 0 through the landing).
+SPH_VOLUME_FACTOR = 0.8
+
+
+def cubic_lattice_sum(support):
+    """sum_j W(x_i - x_j) d^3 over an infinite cubic lattice of spacing d = 1, for the cubic spline
+    kernel with the given support (in lattice spacings), self term included; 1 for a kernel that
+    integrates exactly on the lattice."""
+    k = 8.0 / (math.pi * support ** 3)
+    reach = int(support) + 1
+    total = 0.0
+    for i in range(-reach, reach + 1):
+        for j in range(-reach, reach + 1):
+            for l in range(-reach, reach + 1):
+                q = math.sqrt(i * i + j * j + l * l) / support
+                if q <= 0.5:
+                    total += k * (6.0 * q ** 3 - 6.0 * q ** 2 + 1.0)
+                elif q <= 1.0:
+                    total += k * 2.0 * (1.0 - q) ** 3
+    return total
+
+
+def rest_density_diameter_factor():
+    """f such that SPlisHSPlasH particles of diameter f s on our lattice of spacing s are at its
+    rest density: 0.8 f^3 x cubic_lattice_sum(2 f) = 1 (bisection; f = 1.0758). Its kernel then
+    reaches f^3 = 1.245 times as many neighbours as ours (support 2 s) at the same particle mass."""
+    lo, hi = 1.0, 1.2
+    for _ in range(50):
+        mid = 0.5 * (lo + hi)
+        if SPH_VOLUME_FACTOR * mid ** 3 * cubic_lattice_sum(2.0 * mid) < 1.0:
+            lo = mid
+        else:
+            hi = mid
+    return 0.5 * (lo + hi)
+
+
+def our_lattice(water, spacing):
+    """Our fluid block's lattice points (our axes), the order irrelevant."""
+    axes = [lattice_axis(water["min"][a], water["max"][a], spacing) for a in range(3)]
+    return [[axes[0][1] + i * spacing, axes[1][1] + j * spacing, axes[2][1] + k * spacing]
+            for i in range(axes[0][0]) for j in range(axes[1][0]) for k in range(axes[2][0])]
+
+
+def write_pda(path, points):
+    """Points in Partio's ASCII PDA format (attribute "position"), which SPlisHSPlasH reads as a
+    FluidModels particleFile."""
+    with open(path, "w") as f:
+        f.write(f"ATTRIBUTES\nposition\nTYPES\nV\nNUMBER_OF_PARTICLES: {len(points)}\nBEGIN DATA\n")
+        for p in points:
+            f.write(f"{p[0]!r} {p[1]!r} {p[2]!r}\n")
+
+
+def sph_scene(our_scene, spacing, unit_box_obj, fluid_mode="block", particle_file=None):
+    """The SPlisHSPlasH scene (a dict) for our scene file at `spacing`.
+
+    fluid_mode "block" (the issue's comparison): a FluidBlock on our lattice with particle
+    diameter = our spacing, so the block starts at 0.8 rest density (SPH_VOLUME_FACTOR).
+    fluid_mode "rest": our lattice points written to `particle_file` (PDA), with the particle
+    diameter rest_density_diameter_factor() x spacing so that the block starts at rest density, as
+    ours does: the same particles, positions and mass per particle, its kernel reaching 1.245x our
+    neighbours."""
     boundaries = [b for b in our_scene.get("boundaries", []) if "box" in b and b.get("inside")]
     if len(boundaries) != 1 or len(our_scene.get("fluid", [])) != 1 or "box" not in our_scene["fluid"][0]:
         raise SystemExit("yardstick: the scene must have one container box and one fluid box")
     tank = boundaries[0]["box"]
     water = our_scene["fluid"][0]["box"]
     radius = 0.5 * spacing
+    if fluid_mode == "rest":
+        radius *= rest_density_diameter_factor()
     diam = spacing
 
     tank_min, tank_max = tank["min"], tank["max"]
@@ -145,6 +217,12 @@ def sph_scene(our_scene, spacing, unit_box_obj):
             }
         ],
     }
+    if fluid_mode == "rest":
+        points = [our_to_theirs(p) for p in our_lattice(water, spacing)]
+        write_pda(particle_file, points)
+        del scene["FluidBlocks"]
+        scene["FluidModels"] = [{"id": "Fluid", "particleFile": os.path.abspath(particle_file),
+                                 "translation": [0, 0, 0], "scale": [1, 1, 1]}]
     return scene, counts[0] * counts[1] * counts[2]
 
 
@@ -303,7 +381,60 @@ def print_summary(results, target):
                 f"{k} " + "/".join(f"{p.get(k, 0.0):.2f}" for p in theirs_phases) for k in keys))
 
 
+def read_pda_positions(path):
+    """The positions of a PDA file as written by write_pda (for the self-test)."""
+    with open(path) as f:
+        words = f.read().split()
+    count = int(words[words.index("NUMBER_OF_PARTICLES:") + 1])
+    data = [float(w) for w in words[words.index("DATA") + 1:]]
+    if len(data) != 3 * count:
+        raise ValueError(f"{path}: {len(data)} numbers for {count} particles")
+    return [data[3 * i:3 * i + 3] for i in range(count)]
+
+
+def self_test(our_scene_path):
+    """Checks the scene translation without SPlisHSPlasH; returns a list of failures."""
+    failures = []
+    # The cubic spline integrates to 1, and on a lattice with support 2 spacings sums to it within
+    # 3e-5: SPlisHSPlasH's block at volume 0.8 d^3 is then at 0.8 of its rest density.
+    total = cubic_lattice_sum(2.0)
+    if abs(total - 1.0) > 1e-4:
+        failures.append(f"cubic_lattice_sum(2) = {total}, expected 1 within 1e-4")
+    f = rest_density_diameter_factor()
+    density = SPH_VOLUME_FACTOR * f ** 3 * cubic_lattice_sum(2.0 * f)
+    if abs(density - 1.0) > 1e-9 or not 1.07 < f < 1.08:
+        failures.append(f"rest_density_diameter_factor() = {f} gives density {density}, expected 1")
+    with open(our_scene_path) as fh:
+        our_scene = yaml.safe_load(fh)
+    spacing = 0.031
+    with tempfile.TemporaryDirectory() as tmp:
+        block, n_block = sph_scene(our_scene, spacing, "box.obj")
+        pda = os.path.join(tmp, "fluid.pda")
+        rest, n_rest = sph_scene(our_scene, spacing, "box.obj", "rest", pda)
+        points = read_pda_positions(pda)
+        if n_rest != n_block or len(points) != n_block:
+            failures.append(f"rest mode: {len(points)} points in the file, {n_block} in the block")
+        radius = rest["Configuration"]["particleRadius"]
+        if abs(radius - 0.5 * spacing * f) > 1e-12:
+            failures.append(f"rest mode: particle radius {radius}, expected {0.5 * spacing * f}")
+        if "FluidBlocks" in rest or rest["FluidModels"][0]["particleFile"] != os.path.abspath(pda):
+            failures.append("rest mode: the fluid is not the particle file")
+        # The block's lattice (SPlisHSPlasH's points start at min + d) and the file's points agree.
+        lo = [min(p[a] for p in points) for a in range(3)]
+        start = [block["FluidBlocks"][0]["start"][a] + spacing for a in range(3)]
+        if max(abs(lo[a] - start[a]) for a in range(3)) > 1e-9:
+            failures.append(f"rest mode: lowest point {lo}, the block's first point {start}")
+    return failures
+
+
 def main():
+    if "--self-test" in sys.argv[1:]:
+        scene = os.path.join(REPO, "config", "bench_dam_break.yaml")
+        failures = self_test(scene)
+        for f in failures:
+            print("FAIL: " + f)
+        print("yardstick self-test: " + ("failed" if failures else "passed"))
+        sys.exit(1 if failures else 0)
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--bench", default=os.path.join(REPO, "build", "fluid_sim_bench"), help="our fluid_sim_bench")
     p.add_argument("--scene", default=os.path.join(REPO, "config", "bench_dam_break.yaml"), help="our scene")
@@ -319,6 +450,12 @@ def main():
     p.add_argument("--threads", type=int, default=2)
     p.add_argument("--target", type=float, default=0.25, help="ours/theirs per particle-step to meet")
     p.add_argument("--out", help="directory for the scenes, logs and JSON (default: a temporary one)")
+    p.add_argument("--sph-fluid", choices=["block", "rest"], default="block",
+                   help="SPlisHSPlasH's water: 'block' (default, the issue's setup: a FluidBlock on our "
+                        "lattice, starting at 0.8 of its rest density) or 'rest' (the same particles at its "
+                        "rest density, diameter 1.0758 spacings)")
+    p.add_argument("--self-test", action="store_true",
+                   help="check the scene translation (no SPlisHSPlasH needed) and stop")
     p.add_argument("--scenes-only", action="store_true", help="write the SPlisHSPlasH scenes and stop")
     args = p.parse_args()
     args.bench = os.path.abspath(args.bench)
@@ -340,12 +477,17 @@ def main():
 
     scene_paths = {}
     for spacing, _, _ in cases:
-        scene, n = sph_scene(our_scene, spacing, unit_box)
-        path = os.path.join(workdir, f"sph_dam_break_{spacing}.json")
+        suffix = "" if args.sph_fluid == "block" else "_rest"
+        path = os.path.join(workdir, f"sph_dam_break_{spacing}{suffix}.json")
+        scene, n = sph_scene(our_scene, spacing, unit_box, args.sph_fluid,
+                             os.path.join(workdir, f"sph_fluid_{spacing}.pda"))
         with open(path, "w") as f:
             json.dump(scene, f, indent=2)
         scene_paths[spacing] = path
-        print(f"scene {path}: particle radius {0.5 * spacing} m, {n:,} fluid particles expected")
+        radius = scene["Configuration"]["particleRadius"]
+        print(f"scene {path}: particle radius {radius:.6g} m, {n:,} fluid particles expected, its fluid "
+              + ("a block at 0.8 of its rest density (particle volume 0.8 d^3)" if args.sph_fluid == "block"
+                 else "our lattice at its rest density (kernel support 2.15 spacings)"))
     if args.scenes_only:
         return
 
