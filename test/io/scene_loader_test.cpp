@@ -34,6 +34,7 @@ solver:
   min_divergence_iterations: 2
   divergence_solve: false
   warm_start: true
+  cold_start: jacobi
   omega: 0.6
   clamp_boundary_pressure: false
   mls_fit_radius: 2.5
@@ -137,6 +138,7 @@ TEST(SceneLoader, FullExampleParses)
   EXPECT_EQ(s.solver.min_divergence_iterations, 2);
   EXPECT_FALSE(s.solver.divergence_solve);
   EXPECT_TRUE(s.solver.warm_start);
+  EXPECT_EQ(s.solver.cold_start, ColdStart::Jacobi);
   EXPECT_DOUBLE_EQ(s.solver.omega, 0.6);
   EXPECT_FALSE(s.solver.clamp_boundary_pressure);
   EXPECT_DOUBLE_EQ(s.solver.mls_fit_radius, 2.5);
@@ -217,6 +219,7 @@ TEST(SceneLoader, DefaultsForAbsentKeys)
   EXPECT_FALSE(s.time_step.adaptive);
   EXPECT_DOUBLE_EQ(s.time_step.fixed, defaults.time_step.fixed);
   EXPECT_EQ(s.solver.boundary_pressure, defaults.solver.boundary_pressure);
+  EXPECT_EQ(s.solver.cold_start, ColdStart::Zero);
   EXPECT_DOUBLE_EQ(s.rest_density, defaults.rest_density);
   EXPECT_TRUE(s.boundaries.empty());
   EXPECT_DOUBLE_EQ(s.duration, defaults.duration);
@@ -388,6 +391,8 @@ TEST(SceneLoader, UnknownEnumValue)
   expectError(kBase + "viscosity: {model: laminar}\n", "viscosity.model", "expected none, artificial or xsph");
   expectError(kBase + "solver: {mls_singular: ignore}\n", "solver.mls_singular",
               "expected fallback, pseudo_inverse or regularized");
+  expectError(kBase + "solver: {cold_start: hot}\n", "solver.cold_start",
+              "unknown value 'hot' (expected zero or jacobi)");
 }
 
 TEST(SceneLoader, TimeStepIsFixedOrAdaptive)

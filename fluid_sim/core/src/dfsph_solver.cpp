@@ -305,21 +305,36 @@ private:
     });
   }
 
-  /// Eq. A10: the first guess of a solve whose source is set: zero, or with solver.warm_start the
-  /// previous step's pressure where the water is compressing now (s_i < 0) and is at or above
-  /// rest density. A stale pressure on a particle that has since left the bulk (a splash, with one
-  /// or two neighbours, a density near 0.3 rho0 and a tiny diagonal) would accelerate it by
-  /// p/rho^2 before the two minimum iterations could bring it down: with the plain previous
-  /// pressure the dam breaks blew up for every boundary method (docs/method_notes.md).
+  /// Eq. A10: the first guess of a solve whose source and diagonal are set, non-zero only where
+  /// the water is compressing now (s_i < 0) and is at or above rest density. Cold (no
+  /// solver.warm_start): zero everywhere (solver.cold_start: zero, the default) or one unrelaxed
+  /// Jacobi step from zero there, p_i = s_i / A_i (Eq. A8 with omega = 1 and D_i = 0), which needs
+  /// no pair pass (solver.cold_start: jacobi). Warm: the previous step's pressure there. Elsewhere
+  /// a particle starts from zero: a guess on a particle that has left the bulk (a splash, with one
+  /// or two neighbours, a density near 0.3 rho0 and a tiny diagonal) accelerates it and its
+  /// neighbours by p/rho^2 before the two minimum iterations can bring it down. With the plain
+  /// previous pressure the dam breaks blew up for every boundary method (docs/method_notes.md);
+  /// with the Jacobi step on every particle a splash particle at 0.32 rho0 got 121 kPa and the cup
+  /// test's water went non-finite in the next step (seeded at or above 0.5 rho0 still, at or above
+  /// 0.9 rho0 not).
   void startingPressure(std::vector<Real>& p)
   {
+    const auto seeded = [&](std::size_t i) { return source_[i] < 0 && fluid_.rho[i] >= rho0_; };
     if (!scene_.solver.warm_start)
     {
-      std::fill(p.begin(), p.end(), Real(0));
+      if (scene_.solver.cold_start == ColdStart::Zero)
+      {
+        std::fill(p.begin(), p.end(), Real(0));
+        return;
+      }
+      // A_i < 0 (Eq. A4), so s_i < 0 gives p_i > 0. A lone particle (A_i = 0) starts at 0.
+      parallelFor(p.size(), [&](std::size_t i) {
+        p[i] = (seeded(i) && diagonal_[i] != 0) ? source_[i] / diagonal_[i] : Real(0);
+      });
       return;
     }
     parallelFor(p.size(), [&](std::size_t i) {
-      if (!(source_[i] < 0 && fluid_.rho[i] >= rho0_)) p[i] = 0;
+      if (!seeded(i)) p[i] = 0;
     });
   }
 
@@ -363,7 +378,8 @@ private:
     const std::size_t n = fluid_.size();
     const Real omega = Real(scene_.solver.omega);
     const Real dt2_over_rho0 = Real(dt * dt / rho0_);
-    const bool warm = scene_.solver.warm_start;
+    // Any first guess but zero can be too high somewhere: then |residual| counts (sweep()).
+    const bool guessed = scene_.solver.warm_start || scene_.solver.cold_start == ColdStart::Jacobi;
     // The sweep is itself the reduction of its two figures, the error sum (Eq. A9) and the largest
     // active residual, in the chunks and order of parallelSum: the same sums as from per-particle
     // arrays, without the arrays (8 B per particle).
@@ -371,7 +387,7 @@ private:
         n, SweepFigures{},
         [&](const tbb::blocked_range<std::size_t>& range, SweepFigures& acc) {
           for (std::size_t i = range.begin(); i != range.end(); ++i)
-            sweep(i, p, clamp_p, omega, dt2_over_rho0, warm, acc);
+            sweep(i, p, clamp_p, omega, dt2_over_rho0, guessed, acc);
         },
         [](SweepFigures& left, const SweepFigures& right) {
           left.error += right.error;
@@ -384,17 +400,18 @@ private:
 
   /// Particle i's part of jacobiUpdate(): D_i, the pressure update, and its error and residual
   /// figures added to `acc`.
-  void sweep(std::size_t i, std::vector<Real>& p, bool clamp_p, Real omega, Real dt2_over_rho0, bool warm,
+  void sweep(std::size_t i, std::vector<Real>& p, bool clamp_p, Real omega, Real dt2_over_rho0, bool guessed,
              SweepFigures& acc)
   {
     Real div = mass_ * fluidDivergence(i, a4_);
     div += a4_[i].template head<3>().dot(grad_b_[i]);  // boundary particles are not accelerated by the fluid
     const Real residual = div - source_[i];
-    // residual > 0: compression left. With a warm start the first guess can also be too high
-    // (a stale pressure on a particle that no longer needs it) and then residual < 0 is an
-    // error too, so wherever a pressure acts its |residual| counts; from zero (cold start) the
-    // iteration approaches from below and the positive part is the error (DFSPH's measure).
-    const Real counted = (warm && p[i] != 0) ? std::abs(residual) : std::max(residual, Real(0));
+    // residual > 0: compression left. A first guess can also be too high (a stale warm-start
+    // pressure on a particle that no longer needs it; an unrelaxed Jacobi step that overshoots)
+    // and then residual < 0 is an error too, so wherever a pressure acts its |residual| counts;
+    // from zero the iteration approaches from below and the positive part is the error (DFSPH's
+    // measure).
+    const Real counted = (guessed && p[i] != 0) ? std::abs(residual) : std::max(residual, Real(0));
     acc.error += double(Real(counted * dt2_over_rho0));
     if (diagonal_[i] != 0)
     {

@@ -51,6 +51,11 @@ const char* toString(MlsSingularMode mode)
   return "?";
 }
 
+const char* toString(ColdStart start)
+{
+  return start == ColdStart::Jacobi ? "jacobi" : "zero";
+}
+
 const char* toString(ContactModel model)
 {
   return model == ContactModel::Bullet ? "bullet" : "particles";
