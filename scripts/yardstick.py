@@ -259,8 +259,10 @@ def run(cmd, env=None, log=None):
 
 def run_ours(args, spacing, steps, warm, workdir, tag):
     json_path = os.path.join(workdir, f"ours_{tag}.json")
-    cmd = [args.bench, args.scene, "--spacing", repr(spacing), "--method"] + args.methods + [
-        "--warmup", "0", "--steps", str(steps), "--threads", str(args.threads), "--json", json_path]
+    cmd = [args.bench, args.scene, "--spacing", repr(spacing)]
+    for method in args.methods:  # the bench's --method is repeatable, one value each
+        cmd += ["--method", method]
+    cmd += ["--warmup", "0", "--steps", str(steps), "--threads", str(args.threads), "--json", json_path]
     if warm:
         cmd += ["--set", "solver.warm_start=true"]
     elif args.cold_start != "zero":
