@@ -45,6 +45,49 @@ double potentialEnergy(const Simulation& sim)
   for (const Vec3& x : sim.positions()) e += x.z();
   return e * sim.particleMass() * 9.81;
 }
+
+/// What a cylinder dam break run to 0.5 s leaves (WarmStart, ColdFirstGuess).
+struct DamBreakOutcome
+{
+  Vec3d centre = Vec3d::Zero();  // m, the water's centre of mass at 0.5 s
+  double worst = 0.0;            // largest kinetic / released potential energy after 0.05 s
+  double iterations = 0.0;       // density iterations per step
+};
+
+/// Runs `scene` to 0.5 s, expecting every step stable, no particle lost and, with
+/// `expect_converged`, both solves converged at every step.
+DamBreakOutcome runToHalfASecond(const SceneConfig& scene, bool expect_converged)
+{
+  const char* method = toString(scene.solver.boundary_pressure);
+  Simulation sim(scene);
+  const std::size_t n = sim.numFluidParticles();
+  const double e0 = potentialEnergy(sim);
+  DamBreakOutcome out;
+  int steps = 0;
+  while (sim.time() < 0.5 - 1e-9)
+  {
+    const StepReport r = sim.step();
+    EXPECT_FALSE(r.unstable) << method << ", t = " << r.time << ": " << r.reason;
+    if (r.unstable) break;
+    if (expect_converged) EXPECT_TRUE(r.density_converged && r.divergence_converged) << method << ", t = " << r.time;
+    out.iterations += r.density_iterations;
+    ++steps;
+    if (sim.time() > 0.05) out.worst = std::max(out.worst, r.kinetic_energy / (e0 - potentialEnergy(sim)));
+  }
+  EXPECT_EQ(sim.numFluidParticles(), n);
+  for (const Vec3& x : sim.positions()) out.centre += x.cast<double>();
+  out.centre /= double(sim.numFluidParticles());
+  out.iterations /= steps;
+  return out;
+}
+
+/// The boundary pressure methods the parameterised tests run, and their test names.
+const auto kAllMethods = ::testing::Values(BoundaryPressureMethod::Mirroring, BoundaryPressureMethod::SphExtrapolation,
+                                           BoundaryPressureMethod::Mls);
+std::string methodName(const ::testing::TestParamInfo<BoundaryPressureMethod>& info)
+{
+  return toString(info.param);
+}
 }  // namespace
 
 TEST(Stability, LimitedMlsSurvivesTheCylinderDamBreakAtOneMillisecond)
@@ -89,37 +132,13 @@ TEST_P(WarmStart, DamBreakStaysStable)
   // above rest density. Started warm or from zero, the solves' first iterations push the same
   // way, so the water must go where the same dam break started from zero (solver.cold_start:
   // zero, the default) takes it. (solver.cold_start: jacobi starts elsewhere: ColdFirstGuess.)
-  struct Outcome
-  {
-    Vec3d centre = Vec3d::Zero();  // m, the water's centre of mass at 0.5 s
-    double worst = 0.0;            // largest kinetic / released potential energy after 0.05 s
-    double iterations = 0.0;       // density iterations per step
-  };
   const auto run = [](bool warm) {
     SceneConfig scene = cylinderDamBreak(GetParam(), 0.001);
     scene.solver.warm_start = warm;
     scene.solver.cold_start = fluid_sim::ColdStart::Zero;
-    Simulation sim(scene);
-    const std::size_t n = sim.numFluidParticles();
-    const double e0 = potentialEnergy(sim);
-    Outcome out;
-    int steps = 0;
-    while (sim.time() < 0.5 - 1e-9)
-    {
-      const StepReport r = sim.step();
-      EXPECT_FALSE(r.unstable) << toString(GetParam()) << ", t = " << r.time << ": " << r.reason;
-      if (r.unstable) break;
-      out.iterations += r.density_iterations;
-      ++steps;
-      if (sim.time() > 0.05) out.worst = std::max(out.worst, r.kinetic_energy / (e0 - potentialEnergy(sim)));
-    }
-    EXPECT_EQ(sim.numFluidParticles(), n);
-    for (const Vec3& x : sim.positions()) out.centre += x.cast<double>();
-    out.centre /= double(sim.numFluidParticles());
-    out.iterations /= steps;
-    return out;
+    return runToHalfASecond(scene, false);
   };
-  const Outcome warm = run(true), cold = run(false);
+  const DamBreakOutcome warm = run(true), cold = run(false);
   std::printf(
       "%s: warm start: centre %.4f %.4f %.4f m, %.2f iterations/step, energy ratio %.3f; cold: centre "
       "%.4f %.4f %.4f m, %.2f iterations/step\n",
@@ -149,11 +168,6 @@ TEST_P(ColdFirstGuess, SavesIterationsNotAccuracy)
   // these tolerances (warm against zero start: 0.2-0.4 mm, WarmStart above); seeded on every
   // particle the guess stopped 1.6-2.1 mm from it against 4.3 mm, but blew up the cup test
   // (docs/method.md, Eq. A10).
-  struct Outcome
-  {
-    Vec3d centre = Vec3d::Zero();  // m, the water's centre of mass at 0.5 s
-    double iterations = 0.0;       // density iterations per step
-  };
   const auto run = [](fluid_sim::ColdStart start, double tolerance) {
     SceneConfig scene = cylinderDamBreak(GetParam(), 0.001);
     scene.solver.cold_start = start;
@@ -162,27 +176,10 @@ TEST_P(ColdFirstGuess, SavesIterationsNotAccuracy)
       scene.solver.density_error = tolerance;
       scene.solver.divergence_error = tolerance;
     }
-    Simulation sim(scene);
-    const std::size_t n = sim.numFluidParticles();
-    Outcome out;
-    int steps = 0;
-    while (sim.time() < 0.5 - 1e-9)
-    {
-      const StepReport r = sim.step();
-      EXPECT_FALSE(r.unstable) << toString(GetParam()) << ", t = " << r.time << ": " << r.reason;
-      if (r.unstable) break;
-      EXPECT_TRUE(r.density_converged && r.divergence_converged) << toString(GetParam()) << ", t = " << r.time;
-      out.iterations += r.density_iterations;
-      ++steps;
-    }
-    EXPECT_EQ(sim.numFluidParticles(), n);
-    for (const Vec3& x : sim.positions()) out.centre += x.cast<double>();
-    out.centre /= double(sim.numFluidParticles());
-    out.iterations /= steps;
-    return out;
+    return runToHalfASecond(scene, true);
   };
-  const Outcome jacobi = run(fluid_sim::ColdStart::Jacobi, 0), zero = run(fluid_sim::ColdStart::Zero, 0);
-  const Outcome reference = run(fluid_sim::ColdStart::Jacobi, 1e-4);
+  const DamBreakOutcome jacobi = run(fluid_sim::ColdStart::Jacobi, 0), zero = run(fluid_sim::ColdStart::Zero, 0);
+  const DamBreakOutcome reference = run(fluid_sim::ColdStart::Jacobi, 1e-4);
   const double off_jacobi = (jacobi.centre - reference.centre).norm(),
                off_zero = (zero.centre - reference.centre).norm();
   std::printf("%s: Jacobi guess %.2f iterations/step, %.2f mm from the converged centre; zero %.2f, %.2f mm\n",
@@ -191,16 +188,6 @@ TEST_P(ColdFirstGuess, SavesIterationsNotAccuracy)
   EXPECT_LT(off_jacobi, off_zero + 0.5e-3) << "m";
 }
 
-INSTANTIATE_TEST_SUITE_P(AllMethods, ColdFirstGuess,
-                         ::testing::Values(BoundaryPressureMethod::Mirroring, BoundaryPressureMethod::SphExtrapolation,
-                                           BoundaryPressureMethod::Mls),
-                         [](const ::testing::TestParamInfo<BoundaryPressureMethod>& info) {
-                           return std::string(toString(info.param));
-                         });
+INSTANTIATE_TEST_SUITE_P(AllMethods, ColdFirstGuess, kAllMethods, methodName);
 
-INSTANTIATE_TEST_SUITE_P(AllMethods, WarmStart,
-                         ::testing::Values(BoundaryPressureMethod::Mirroring, BoundaryPressureMethod::SphExtrapolation,
-                                           BoundaryPressureMethod::Mls),
-                         [](const ::testing::TestParamInfo<BoundaryPressureMethod>& info) {
-                           return std::string(toString(info.param));
-                         });
+INSTANTIATE_TEST_SUITE_P(AllMethods, WarmStart, kAllMethods, methodName);
