@@ -131,23 +131,31 @@ TEST_P(WarmStart, DamBreakStaysStable)
   // before the warm start was restricted to particles that are being compressed and are at or
   // above rest density. Started warm or from zero, the solves' first iterations push the same
   // way, so the water must go where the same dam break started from zero (solver.cold_start:
-  // zero, the default) takes it. (solver.cold_start: jacobi starts elsewhere: ColdFirstGuess.)
-  const auto run = [](bool warm) {
+  // zero, the paper's start) takes it. (solver.cold_start: jacobi, the default, starts elsewhere:
+  // ColdFirstGuess.)
+  const auto run = [](bool warm, WarmStartGuess guess) {
     SceneConfig scene = cylinderDamBreak(GetParam(), 0.001);
     scene.solver.warm_start = warm;
+    scene.solver.warm_start_guess = guess;
     scene.solver.cold_start = fluid_sim::ColdStart::Zero;
     return runToHalfASecond(scene, false);
   };
-  const DamBreakOutcome warm = run(true), cold = run(false);
-  std::printf(
-      "%s: warm start: centre %.4f %.4f %.4f m, %.2f iterations/step, energy ratio %.3f; cold: centre "
-      "%.4f %.4f %.4f m, %.2f iterations/step\n",
-      toString(GetParam()), warm.centre.x(), warm.centre.y(), warm.centre.z(), warm.iterations, warm.worst,
-      cold.centre.x(), cold.centre.y(), cold.centre.z(), cold.iterations);
-  EXPECT_LT((warm.centre - cold.centre).norm(), 0.002) << "m";  // measured 0.2-0.4 mm
-  EXPECT_LT(warm.iterations, cold.iterations);                  // what it is for: 2.0 against 2.7-2.8
-  // Still walls do no work: no more kinetic energy than the fall has released.
-  EXPECT_LT(warm.worst, 1.0);
+  const DamBreakOutcome cold = run(false, WarmStartGuess::Previous);
+  // solver.warm_start_guess: previous (the default) and damped (Eq. A10b: half the previous
+  // pressure plus the Jacobi step), each against the same cold run.
+  for (WarmStartGuess guess : {WarmStartGuess::Previous, WarmStartGuess::Damped})
+  {
+    const DamBreakOutcome warm = run(true, guess);
+    std::printf(
+        "%s: warm start (%s): centre %.4f %.4f %.4f m, %.2f iterations/step, energy ratio %.3f; cold: centre "
+        "%.4f %.4f %.4f m, %.2f iterations/step\n",
+        toString(GetParam()), toString(guess), warm.centre.x(), warm.centre.y(), warm.centre.z(), warm.iterations,
+        warm.worst, cold.centre.x(), cold.centre.y(), cold.centre.z(), cold.iterations);
+    EXPECT_LT((warm.centre - cold.centre).norm(), 0.002) << "m";  // measured 0.2-0.4 mm
+    EXPECT_LT(warm.iterations, cold.iterations);                  // what it is for: 2.0 against 2.7-2.8
+    // Still walls do no work: no more kinetic energy than the fall has released.
+    EXPECT_LT(warm.worst, 1.0);
+  }
 }
 
 class ColdFirstGuess : public ::testing::TestWithParam<BoundaryPressureMethod>

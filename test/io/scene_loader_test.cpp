@@ -34,7 +34,8 @@ solver:
   min_divergence_iterations: 2
   divergence_solve: false
   warm_start: true
-  cold_start: jacobi
+  cold_start: zero
+  warm_start_guess: damped
   omega: 0.6
   clamp_boundary_pressure: false
   mls_fit_radius: 2.5
@@ -138,7 +139,8 @@ TEST(SceneLoader, FullExampleParses)
   EXPECT_EQ(s.solver.min_divergence_iterations, 2);
   EXPECT_FALSE(s.solver.divergence_solve);
   EXPECT_TRUE(s.solver.warm_start);
-  EXPECT_EQ(s.solver.cold_start, ColdStart::Jacobi);
+  EXPECT_EQ(s.solver.cold_start, ColdStart::Zero);  // the default is jacobi
+  EXPECT_EQ(s.solver.warm_start_guess, WarmStartGuess::Damped);
   EXPECT_DOUBLE_EQ(s.solver.omega, 0.6);
   EXPECT_FALSE(s.solver.clamp_boundary_pressure);
   EXPECT_DOUBLE_EQ(s.solver.mls_fit_radius, 2.5);
@@ -219,7 +221,8 @@ TEST(SceneLoader, DefaultsForAbsentKeys)
   EXPECT_FALSE(s.time_step.adaptive);
   EXPECT_DOUBLE_EQ(s.time_step.fixed, defaults.time_step.fixed);
   EXPECT_EQ(s.solver.boundary_pressure, defaults.solver.boundary_pressure);
-  EXPECT_EQ(s.solver.cold_start, ColdStart::Zero);
+  EXPECT_EQ(s.solver.cold_start, ColdStart::Jacobi);
+  EXPECT_EQ(s.solver.warm_start_guess, WarmStartGuess::Previous);
   EXPECT_DOUBLE_EQ(s.rest_density, defaults.rest_density);
   EXPECT_TRUE(s.boundaries.empty());
   EXPECT_DOUBLE_EQ(s.duration, defaults.duration);
@@ -393,6 +396,8 @@ TEST(SceneLoader, UnknownEnumValue)
               "expected fallback, pseudo_inverse or regularized");
   expectError(kBase + "solver: {cold_start: hot}\n", "solver.cold_start",
               "unknown value 'hot' (expected zero or jacobi)");
+  expectError(kBase + "solver: {warm_start_guess: last}\n", "solver.warm_start_guess",
+              "unknown value 'last' (expected previous or damped)");
 }
 
 TEST(SceneLoader, TimeStepIsFixedOrAdaptive)

@@ -56,6 +56,11 @@ const char* toString(ColdStart start)
   return start == ColdStart::Jacobi ? "jacobi" : "zero";
 }
 
+const char* toString(WarmStartGuess guess)
+{
+  return guess == WarmStartGuess::Damped ? "damped" : "previous";
+}
+
 const char* toString(ContactModel model)
 {
   return model == ContactModel::Bullet ? "bullet" : "particles";

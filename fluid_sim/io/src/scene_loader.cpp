@@ -119,6 +119,8 @@ SolverConfig readSolver(const Entry& e)
   r.read("divergence_solve", s.divergence_solve);
   r.read("warm_start", s.warm_start);
   if (auto m = r.get("cold_start")) s.cold_start = readNamed(*m, {ColdStart::Zero, ColdStart::Jacobi});
+  if (auto m = r.get("warm_start_guess"))
+    s.warm_start_guess = readNamed(*m, {WarmStartGuess::Previous, WarmStartGuess::Damped});
   r.read("omega", s.omega);
   r.read("clamp_boundary_pressure", s.clamp_boundary_pressure);
   r.read("limit_boundary_pressure", s.limit_boundary_pressure);

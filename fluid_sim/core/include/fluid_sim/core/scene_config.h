@@ -41,9 +41,17 @@ const char* toString(MlsSingularMode mode);
 enum class ColdStart
 {
   Zero,   // p_i = 0 (the paper's start; the first iteration then spends a pair pass on a^p = 0)
-  Jacobi  // one unrelaxed Jacobi step from zero where the water is compressed: p_i = s_i / A_i
+  Jacobi  // one unrelaxed Jacobi step from zero where the water is compressed: p_i = s_i / A_i (default)
 };
 const char* toString(ColdStart start);
+
+/// The first guess of a solve with solver.warm_start (docs/method.md, Eq. A10b).
+enum class WarmStartGuess
+{
+  Previous,  // the previous step's pressure where Eq. A10 holds (the default)
+  Damped     // half of it plus the cold start's Jacobi step there: still water holds still
+};
+const char* toString(WarmStartGuess guess);
 
 struct AxisBox
 {
@@ -232,16 +240,17 @@ struct ViscosityConfig
 struct SolverConfig
 {
   BoundaryPressureMethod boundary_pressure = BoundaryPressureMethod::Mls;  // key: solver.boundary_pressure
-  double density_error = 0.001;            // relative, mean over particles   key: solver.density_error
-  double divergence_error = 0.001;         // relative per step                key: solver.divergence_error
-  int min_iterations = 2;                  // density solve                    key: solver.min_iterations
-  int max_iterations = 100;                // both solves                      key: solver.max_iterations
-  int min_divergence_iterations = 1;       //                                key: solver.min_divergence_iterations
-  bool divergence_solve = true;            // key: solver.divergence_solve (paper Sec. 5.1 runs without it)
-  bool warm_start = false;                 // key: solver.warm_start
-  ColdStart cold_start = ColdStart::Zero;  // without warm_start   key: solver.cold_start: zero | jacobi
-  double omega = 0.5;                      // relaxed Jacobi factor            key: solver.omega
-  bool clamp_boundary_pressure = true;     // p_b >= 0 in the density solve key: solver.clamp_boundary_pressure
+  double density_error = 0.001;              // relative, mean over particles   key: solver.density_error
+  double divergence_error = 0.001;           // relative per step                key: solver.divergence_error
+  int min_iterations = 2;                    // density solve                    key: solver.min_iterations
+  int max_iterations = 100;                  // both solves                      key: solver.max_iterations
+  int min_divergence_iterations = 1;         //                                key: solver.min_divergence_iterations
+  bool divergence_solve = true;              // key: solver.divergence_solve (paper Sec. 5.1 runs without it)
+  bool warm_start = false;                   // key: solver.warm_start
+  ColdStart cold_start = ColdStart::Jacobi;  // without warm_start  key: solver.cold_start: jacobi | zero
+  WarmStartGuess warm_start_guess = WarmStartGuess::Previous;  // key: solver.warm_start_guess
+  double omega = 0.5;                                          // relaxed Jacobi factor            key: solver.omega
+  bool clamp_boundary_pressure = true;  // p_b >= 0 in the density solve key: solver.clamp_boundary_pressure
   // Limit each extrapolated p_b (sph, mls) to the range of its fluid neighbours' pressures,
   // widened by rho0 |g - a_b| times the fit radius (Eq. A11: the largest hydrostatic difference
   // between b and a neighbour of its fit, so it never binds in water at rest). It stops a fit
