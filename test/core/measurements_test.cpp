@@ -292,9 +292,9 @@ TEST(Measurements, DampedWarmStartHoldsStillWaterStill)
   // compression. Half of it plus the Jacobi step of now (damped, docs/method.md Eq. A10b) held
   // every step within 0.3 % of the mean, with the same 2.00 density iterations per step, and the
   // water settling (rms 1.9, 1.0 and 0.4 cm/s over 1-2, 2-3 and 3-4 s, as the cold starts'). In
-  // the double build over 2-3 s: previous 50 % and 3.0 cm/s, damped 1.7 % and 1.4 cm/s. (Cold, the Jacobi guess also
-  // holds this column; in a shallower tank at 1.43 cm every cold start swung by +-35 % where damped stayed within 2 %:
-  // docs/method_notes.md, Still water.)
+  // the double build over 2-3 s: previous 50 % and 3.0 cm/s, damped 1.7 % and 1.4 cm/s. (Cold,
+  // the Jacobi guess also holds this column; in a shallower tank at 1.43 cm every cold start
+  // swung by +-35 % where damped stayed within 2 %: docs/method_notes.md, Still water.)
   struct Outcome
   {
     double swing = 0.0, vrms = 0.0, iterations = 0.0;  // relative, m/s, per step
