@@ -310,14 +310,14 @@ private:
   /// solver.warm_start): one unrelaxed Jacobi step from zero there, p_i = s_i / A_i (Eq. A8 with
   /// omega = 1 and D_i = 0), which needs no pair pass (solver.cold_start: jacobi, the default), or
   /// zero everywhere (solver.cold_start: zero, the paper's start). Warm: the previous step's
-  /// pressure there. Elsewhere
-  /// a particle starts from zero: a guess on a particle that has left the bulk (a splash, with one
-  /// or two neighbours, a density near 0.3 rho0 and a tiny diagonal) accelerates it and its
-  /// neighbours by p/rho^2 before the two minimum iterations can bring it down. With the plain
-  /// previous pressure the dam breaks blew up for every boundary method (docs/method_notes.md);
-  /// with the Jacobi step on every particle a splash particle at 0.32 rho0 got 121 kPa and the cup
-  /// test's water went non-finite in the next step (seeded at or above 0.5 rho0 still, at or above
-  /// 0.9 rho0 not).
+  /// pressure there (solver.warm_start_guess: previous) or half of it plus the Jacobi step (damped,
+  /// Eq. A10b). Elsewhere a particle starts from zero: a guess on a particle that has left the
+  /// bulk (a splash, with one or two neighbours, a density near 0.3 rho0 and a tiny diagonal)
+  /// accelerates it and its neighbours by p/rho^2 before the two minimum iterations can bring it
+  /// down. With the plain previous pressure the dam breaks blew up for every boundary method
+  /// (docs/method_notes.md); with the Jacobi step on every particle a splash particle at 0.32 rho0
+  /// got 121 kPa and the cup test's water went non-finite in the next step (seeded at or above
+  /// 0.5 rho0 still, at or above 0.9 rho0 not).
   void startingPressure(std::vector<Real>& p)
   {
     const auto seeded = [&](std::size_t i) { return source_[i] < 0 && fluid_.rho[i] >= rho0_; };
@@ -343,10 +343,10 @@ private:
     }
     // Eq. A10b: half the previous pressure plus the Jacobi step of now. The previous pressure alone
     // is a lagging (integrating) feedback on the water's compression: in still water the pressure
-    // then swings from step to step (0.1-2.6 of its mean at 3-4 s in a 22-layer tank) and the water
-    // jitters (rms 3-4 cm/s); the Jacobi step responds to the compression and its rate now, and the
-    // half keeps what the iterations cannot rebuild in a few sweeps (a quarter or three quarters
-    // of it still swung).
+    // then swings from step to step (0.17-2.6 of its mean at 3-4 s in a 22-layer tank) and the
+    // water jitters (rms 3-4 cm/s); the Jacobi step responds to the compression and its rate now,
+    // and the half keeps what the iterations cannot rebuild in a few sweeps (three quarters of it,
+    // or half of it with half the Jacobi step, still swung: docs/method_notes.md, Still water).
     parallelFor(p.size(), [&](std::size_t i) {
       if (!seeded(i))
         p[i] = 0;
