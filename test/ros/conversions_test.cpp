@@ -592,6 +592,7 @@ TEST(Reconfigure, EveryGroupsCopyOfAParameterIsSet)
   SolverConfig solver;
   solver.density_error = 0.002;
   solver.warm_start = true;
+  solver.warm_start_guess = WarmStartGuess::Damped;
   ViscosityConfig viscosity;
   viscosity.coefficient = 0.05;
   auto* c = new (storage) fluid_sim::FluidSimConfig(ros_bridge::toReconfigure(solver, viscosity));
@@ -600,6 +601,15 @@ TEST(Reconfigure, EveryGroupsCopyOfAParameterIsSet)
   EXPECT_EQ(c->groups.solver.min_iterations, c->min_iterations);
   EXPECT_EQ(c->groups.solver.max_iterations, c->max_iterations);
   EXPECT_EQ(static_cast<int>(c->groups.solver.warm_start), 1);
+  EXPECT_EQ(c->groups.solver.warm_start_guess, "damped");
+  // And back: the scene's key from the server's string.
+  SolverConfig back;
+  ViscosityConfig back_viscosity;
+  ros_bridge::fromReconfigure(*c, back, back_viscosity);
+  EXPECT_EQ(back.warm_start_guess, WarmStartGuess::Damped);
+  c->warm_start_guess = "previous";
+  ros_bridge::fromReconfigure(*c, back, back_viscosity);
+  EXPECT_EQ(back.warm_start_guess, WarmStartGuess::Previous);
   EXPECT_EQ(c->groups.viscosity.viscosity_coefficient, 0.05);
   EXPECT_EQ(c->groups.viscosity.boundary_viscosity, c->boundary_viscosity);
   EXPECT_EQ(c->groups.node.publish_rate, fluid_sim::FluidSimConfig::__getDefault__().publish_rate);

@@ -286,6 +286,7 @@ fluid_sim::FluidSimConfig toReconfigure(const SolverConfig& solver, const Viscos
   c.min_iterations = solver.min_iterations;
   c.max_iterations = solver.max_iterations;
   c.warm_start = solver.warm_start;
+  c.warm_start_guess = toString(solver.warm_start_guess);
   c.viscosity_model = toString(viscosity.model);
   c.viscosity_coefficient = viscosity.coefficient;
   c.boundary_viscosity = viscosity.boundary;
@@ -313,7 +314,8 @@ void fromReconfigure(const fluid_sim::FluidSimConfig& config, SolverConfig& solv
   solver.min_iterations = config.min_iterations;
   solver.max_iterations = config.max_iterations;
   solver.warm_start = config.warm_start;
-  // The .cfg offers exactly these three names.
+  // The .cfg offers exactly these names.
+  solver.warm_start_guess = config.warm_start_guess == "damped" ? WarmStartGuess::Damped : WarmStartGuess::Previous;
   if (config.viscosity_model == "artificial")
     viscosity.model = ViscosityModel::Artificial;
   else if (config.viscosity_model == "xsph")

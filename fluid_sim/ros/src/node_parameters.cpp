@@ -32,8 +32,8 @@ const std::set<std::string>& nodeKeys()
       "real_time_factor", "publish_rate", "surface_rate", "max_points", "tf_delay", "tf_wait_timeout", "stop_after",
       "threads", "publish_boundary", "wrench_window", "probe_window",
       // dynamic_reconfigure (cfg/FluidSim.cfg)
-      "density_error", "divergence_error", "min_iterations", "max_iterations", "warm_start", "viscosity_model",
-      "viscosity_coefficient", "boundary_viscosity", "groups"};
+      "density_error", "divergence_error", "min_iterations", "max_iterations", "warm_start", "warm_start_guess",
+      "viscosity_model", "viscosity_coefficient", "boundary_viscosity", "groups"};
   return keys;
 }
 

@@ -256,11 +256,11 @@ void SolverLoop::applyCommands()
     {
       sim_->updateSettings(solver, visc, sim_->scene().stability);
       ROS_INFO(
-          "settings: density_error %g, divergence_error %g, iterations %d..%d, warm_start %s, viscosity %s %g "
+          "settings: density_error %g, divergence_error %g, iterations %d..%d, warm_start %s (%s), viscosity %s %g "
           "(walls %g), publish_rate %g Hz, real_time_factor %g, max_points %d, surface_rate %g Hz",
           c.density_error, c.divergence_error, c.min_iterations, c.max_iterations, c.warm_start ? "on" : "off",
-          c.viscosity_model.c_str(), c.viscosity_coefficient, c.boundary_viscosity, c.publish_rate, c.real_time_factor,
-          c.max_points, c.surface_rate);
+          c.warm_start_guess.c_str(), c.viscosity_model.c_str(), c.viscosity_coefficient, c.boundary_viscosity,
+          c.publish_rate, c.real_time_factor, c.max_points, c.surface_rate);
     }
     catch (const ConfigError& e)
     {
