@@ -320,38 +320,32 @@ private:
   /// 0.5 rho0 still, at or above 0.9 rho0 not).
   void startingPressure(std::vector<Real>& p)
   {
-    const auto seeded = [&](std::size_t i) { return source_[i] < 0 && fluid_.rho[i] >= rho0_; };
-    if (!scene_.solver.warm_start)
+    if (!scene_.solver.warm_start && scene_.solver.cold_start == ColdStart::Zero)
     {
-      if (scene_.solver.cold_start == ColdStart::Zero)
-      {
-        std::fill(p.begin(), p.end(), Real(0));
-        return;
-      }
-      // A_i < 0 (Eq. A4), so s_i < 0 gives p_i > 0. A lone particle (A_i = 0) starts at 0.
-      parallelFor(p.size(), [&](std::size_t i) {
-        p[i] = (seeded(i) && diagonal_[i] != 0) ? source_[i] / diagonal_[i] : Real(0);
-      });
+      std::fill(p.begin(), p.end(), Real(0));
       return;
     }
-    if (scene_.solver.warm_start_guess == WarmStartGuess::Previous)
+    // Where A10 holds: p_i = keep p_i(previous step) + step s_i / A_i, the Jacobi step (A10a)
+    // scaled by `step`; keep, step = 0, 1 cold (A10a), 1, 0 warm previous (A10), 1/2, 1 warm
+    // damped (A10b). A_i < 0 (Eq. A4), so s_i < 0 gives s_i / A_i > 0; a lone particle (A_i = 0)
+    // takes no Jacobi step.
+    Real keep = 0, step = 1;
+    if (scene_.solver.warm_start)
     {
-      parallelFor(p.size(), [&](std::size_t i) {
-        if (!seeded(i)) p[i] = 0;
-      });
-      return;
+      // Damped: the previous pressure alone is a lagging (integrating) feedback on the water's
+      // compression: in still water it swings from step to step (0.17-2.6 of its mean at 3-4 s
+      // in a 22-layer tank) and the water jitters (rms 3-4 cm/s); the Jacobi step responds to the
+      // compression and its rate now, and the half keeps what a few sweeps cannot rebuild (three
+      // quarters of it, or half of it with half the Jacobi step, still swung: docs/method_notes.md,
+      // Still water).
+      const bool damped = scene_.solver.warm_start_guess == WarmStartGuess::Damped;
+      keep = damped ? Real(0.5) : Real(1);
+      step = damped ? Real(1) : Real(0);
     }
-    // Eq. A10b: half the previous pressure plus the Jacobi step of now. The previous pressure alone
-    // is a lagging (integrating) feedback on the water's compression: in still water the pressure
-    // then swings from step to step (0.17-2.6 of its mean at 3-4 s in a 22-layer tank) and the
-    // water jitters (rms 3-4 cm/s); the Jacobi step responds to the compression and its rate now,
-    // and the half keeps what the iterations cannot rebuild in a few sweeps (three quarters of it,
-    // or half of it with half the Jacobi step, still swung: docs/method_notes.md, Still water).
     parallelFor(p.size(), [&](std::size_t i) {
-      if (!seeded(i))
-        p[i] = 0;
-      else
-        p[i] = Real(0.5) * p[i] + (diagonal_[i] != 0 ? source_[i] / diagonal_[i] : Real(0));
+      const bool seeded = source_[i] < 0 && fluid_.rho[i] >= rho0_;
+      const Real jacobi = (step != 0 && diagonal_[i] != 0) ? source_[i] / diagonal_[i] : Real(0);
+      p[i] = seeded ? keep * p[i] + step * jacobi : Real(0);
     });
   }
 
