@@ -425,6 +425,53 @@ boundaries:
   for (const Vec3& x : sim.boundaryPositions()) ASSERT_TRUE(x.allFinite());
 }
 
+TEST(LinkPoses, TheBuildsPosesAreAllTakenAtOneInstantThatTfKnowsForEveryLink)
+{
+  // Each link's newest pose has its own stamp (a publisher's period before now). The node places
+  // the water around the build's poses and poses the links at the build's instant in the first
+  // step, so both must be the same instant: the newest one tf knows every link at. Before, the
+  // newest poses were taken with now as their instant, and the demo's paddle at 4x speed (1.2 m/s)
+  // started up to a spacing away from its hole in the water: NaN in the second step in half the
+  // starts.
+  ros::Time::init();
+  NodeOptions opt;
+  LinkPoses links(opt);
+  auto put = [&](const std::string& child, double stamp, double x) {
+    geometry_msgs::TransformStamped t;
+    t.header.frame_id = "world";
+    t.header.stamp = ros::Time(stamp);
+    t.child_frame_id = child;
+    t.transform.translation.x = x;
+    t.transform.rotation.w = 1.0;
+    ASSERT_TRUE(links.buffer().setTransform(t, "test"));
+  };
+  put("fast", 10.00, 0.0);
+  put("fast", 10.02, 0.02);  // fast: newest at 10.02 s, moving at 1 m/s
+  put("slow", 10.00, 0.5);
+  put("slow", 10.01, 0.5);  // slow: newest at 10.01 s
+  std::map<std::string, Pose> poses{{"fast", Pose()}, {"slow", Pose()}};
+  const ros::Time stamp = links.posesAtOneInstant({"fast", "slow"}, poses);
+  EXPECT_EQ(stamp, ros::Time(10.01));
+  EXPECT_NEAR(poses.at("fast").translation.x(), 0.01, 1e-9);  // at 10.01 s, not its newest 0.02
+  EXPECT_NEAR(poses.at("slow").translation.x(), 0.5, 1e-9);
+
+  // A frame tf does not know: no common instant, the poses as they were.
+  poses = {{"fast", Pose()}, {"gone", Pose()}};
+  EXPECT_TRUE(links.posesAtOneInstant({"fast", "gone"}, poses).isZero());
+  EXPECT_EQ(poses.at("fast").translation, Vec3d::Zero());
+
+  // Static frames only (stamp zero): any instant gives the same poses; zero, poses unchanged.
+  tf2_ros::Buffer& buffer = links.buffer();
+  geometry_msgs::TransformStamped fixed;
+  fixed.header.frame_id = "world";
+  fixed.child_frame_id = "base";
+  fixed.transform.translation.z = 0.45;
+  fixed.transform.rotation.w = 1.0;
+  ASSERT_TRUE(buffer.setTransform(fixed, "test", true));
+  poses = {{"base", Pose()}};
+  EXPECT_TRUE(links.posesAtOneInstant({"base"}, poses).isZero());
+}
+
 TEST(LinkPoses, AnEmitterFixedInATfFrameFollowsItAndReleasesThere)
 {
   // emitters[i].frame: the node looks the frame up before every step and poses the nozzle at

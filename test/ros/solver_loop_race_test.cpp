@@ -43,7 +43,7 @@ boundaries:
 )yaml",
                                "race.yaml"),
                 {});
-  loop.build({});
+  loop.build({}, ros::Time());
   loop.start();
   // The step service waits for its steps; the pause service resumes meanwhile, so the waiting
   // call returns while the solver runs on (and reads what the solver writes after each step).

@@ -77,8 +77,9 @@ struct FluidSimNode::Impl
     loop.setScene(std::move(scene), std::move(link_bodies));
     links.listen(nh);
     std::map<std::string, Pose> poses;
-    if (!links.waitFor(loop.tfFrames(), loop.stopping(), poses)) return false;
-    loop.build(poses);
+    ros::Time poses_stamp;
+    if (!links.waitFor(loop.tfFrames(), loop.stopping(), poses, poses_stamp)) return false;
+    loop.build(poses, poses_stamp);
     const Simulation& sim = loop.simulation();
     ROS_INFO(
         "fluid_sim: %zu fluid particles (%zu removed at start), %zu boundary particles in %zu bodies (%zu from "

@@ -48,8 +48,9 @@ std::optional<Pose> LinkPoses::lookup(const std::string& link, const ros::Time& 
 }
 
 bool LinkPoses::waitFor(const std::vector<std::string>& links, const std::atomic<bool>& stopping,
-                        std::map<std::string, Pose>& poses)
+                        std::map<std::string, Pose>& poses, ros::Time& stamp)
 {
+  stamp = ros::Time();
   const ros::WallTime start = ros::WallTime::now();
   ros::WallTime last_note = start;
   bool noted = false;
@@ -68,6 +69,7 @@ bool LinkPoses::waitFor(const std::vector<std::string>& links, const std::atomic
     if (missing.empty())
     {
       if (noted) ROS_INFO("tf now has every link; starting");
+      stamp = posesAtOneInstant(links, poses);
       return true;
     }
     const double waited = (ros::WallTime::now() - start).toSec();
@@ -143,21 +145,54 @@ void LinkPoses::attachEmitters(Simulation& sim, const std::map<std::string, Pose
   }
 }
 
-std::map<std::string, Pose> LinkPoses::newestPoses()
+ros::Time LinkPoses::posesAtOneInstant(const std::vector<std::string>& frames, std::map<std::string, Pose>& poses)
+{
+  ros::Time common;  // the oldest non-zero newest stamp
+  for (const std::string& frame : frames)
+  {
+    ros::Time at;
+    try
+    {
+      // The newest instant the whole chain fixed frame -> frame is known at (zero: all static).
+      at = buffer_.lookupTransform(opt_.fixed_frame, frame, ros::Time(0)).header.stamp;
+    }
+    catch (const tf2::TransformException&)
+    {
+      return ros::Time();
+    }
+    if (!at.isZero() && (common.isZero() || at < common)) common = at;
+  }
+  if (common.isZero()) return common;
+  std::map<std::string, Pose> at_common;
+  for (const std::string& frame : frames)
+  {
+    std::optional<Pose> p = lookup(frame, common, nullptr);
+    if (!p) return ros::Time();
+    at_common[frame] = *p;
+  }
+  for (auto& [frame, pose] : at_common) poses[frame] = pose;
+  return common;
+}
+
+std::map<std::string, Pose> LinkPoses::newestPoses(ros::Time& stamp)
 {
   std::map<std::string, Pose> poses;
+  std::vector<std::string> frames;
   for (const LinkBody& lb : links_)
   {
     std::string why;
     auto p = lookup(lb.link, ros::Time(0), &why);
     poses[lb.link] = p ? *p : lb.last_pose;
+    frames.push_back(lb.link);
   }
   for (const EmitterFrame& ef : emitter_frames_)
   {
     std::string why;
     auto p = lookup(ef.frame, ros::Time(0), &why);
     poses[ef.frame] = p ? *p : ef.last_pose;
+    frames.push_back(ef.frame);
   }
+  stamp = posesAtOneInstant(frames, poses);
   return poses;
 }
 

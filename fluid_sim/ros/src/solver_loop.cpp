@@ -66,7 +66,7 @@ std::set<std::string> SolverLoop::freeLinkNames() const
   return names;
 }
 
-void SolverLoop::build(const std::map<std::string, Pose>& poses)
+void SolverLoop::build(const std::map<std::string, Pose>& poses, const ros::Time& poses_stamp)
 {
   SceneConfig scene = base_scene_;
   for (BoundaryConfig b : link_configs_)
@@ -76,13 +76,14 @@ void SolverLoop::build(const std::map<std::string, Pose>& poses)
     if (!b.dynamic.enabled) b.pose = poses.at(b.name);
     scene.boundaries.push_back(std::move(b));
   }
-  // The poses are tf's newest now; the construction (the fill's relaxation: up to seconds) takes
-  // a while, during which the links move on. Simulated t = 0 is tied to this instant (see the
-  // anchoring in run()), not to the end of the construction, so that the first step finds the
-  // links where the water was placed around them. Anchored at the end instead, the demo's
-  // paddle, turning at 1.5 rad/s, jumped 0.3-0.5 rad through the settled water in its first step
-  // and every particle became NaN in the second.
-  built_at_ = ros::Time::now();
+  // The poses are tf's at poses_stamp (LinkPoses::posesAtOneInstant); the construction (the
+  // fill's relaxation: up to seconds) takes a while, during which the links move on. Simulated
+  // t = 0 is tied to the poses' instant (see the anchoring in run()), not to the end of the
+  // construction, so that the first step finds the links where the water was placed around them.
+  // Anchored at the end instead, the demo's paddle, turning at 1.5 rad/s, jumped 0.3-0.5 rad
+  // through the settled water in its first step and every particle became NaN in the second.
+  const ros::Time now = ros::Time::now();
+  built_at_ = (poses_stamp.isZero() || poses_stamp > now) ? now : poses_stamp;
   timeline_valid_ = false;  // a new scene: a new time line, from built_at_
   try
   {
@@ -225,13 +226,14 @@ void SolverLoop::applyCommands()
   {
     reset_requested_ = false;
     reset_error_.clear();
-    const std::map<std::string, Pose> poses = links_.newestPoses();
+    ros::Time poses_stamp;
+    const std::map<std::string, Pose> poses = links_.newestPoses(poses_stamp);
     const SolverConfig solver = sim_->scene().solver;
     const ViscosityConfig visc = sim_->scene().viscosity;
     const StabilityConfig stab = sim_->scene().stability;
     try
     {
-      build(poses);
+      build(poses, poses_stamp);
       sim_->updateSettings(solver, visc, stab);  // live settings survive a reset
       steps_ = 0;
       last_status_ = "ok";

@@ -37,9 +37,10 @@ public:
 
   /// Waits until tf knows every one of `links` in the fixed frame; their poses go into `poses`.
   /// Throws StartupError after opt.tf_wait_timeout s (0 = wait for ever). False if ROS shut
-  /// down or `stopping` became true meanwhile.
+  /// down or `stopping` became true meanwhile. The poses are taken at one instant, returned in
+  /// `stamp` (see posesAtOneInstant).
   bool waitFor(const std::vector<std::string>& links, const std::atomic<bool>& stopping,
-               std::map<std::string, Pose>& poses);
+               std::map<std::string, Pose>& poses, ros::Time& stamp);
 
   /// The links become bodies of `sim` (looked up by name), last posed at `poses`.
   void attach(const Simulation& sim, const std::vector<std::string>& links, const std::map<std::string, Pose>& poses);
@@ -49,8 +50,20 @@ public:
   /// (newest), else the nozzle stays at its scene pose with a warning.
   void attachEmitters(Simulation& sim, const std::map<std::string, Pose>& poses);
 
-  /// For a rebuild: each link's newest pose, or its last one where tf has none.
-  std::map<std::string, Pose> newestPoses();
+  /// For a rebuild: the poses of every link and emitter frame at one instant (posesAtOneInstant),
+  /// returned in `stamp`; where tf cannot give that, each one's newest pose, or its last one where
+  /// tf has none, and a zero `stamp`.
+  std::map<std::string, Pose> newestPoses(ros::Time& stamp);
+
+  /// Replaces `poses` (one per frame of `frames`, each tf's newest) by the poses at the newest
+  /// instant at which tf knows every one of them, the oldest of their newest stamps, and returns
+  /// that instant; zero (poses unchanged) when the frames are all static or tf cannot give one of
+  /// them there. Why: each frame's newest pose has its own stamp, a few ms (a publisher's period)
+  /// before now; the simulation's first step poses the links at the build's instant, so the water
+  /// must be placed around the poses of that very instant. A link's newest poses, with the
+  /// instant taken as now, put a link moving at 1-2 m/s 1-2 spacings away from the water placed
+  /// around it, and the demo blew up in its second step (scripts/node_speed.py, factor 4).
+  ros::Time posesAtOneInstant(const std::vector<std::string>& frames, std::map<std::string, Pose>& poses);
 
   /// The first link whose newest pose in tf is older than `stamp` (tf has not got there yet: its
   /// publisher is late or has stopped), with that pose's stamp in `newest` (zero if tf has no

@@ -63,8 +63,10 @@ public:
   /// Names of the links that are free bodies (~free_links): the simulation moves them.
   std::set<std::string> freeLinkNames() const;
 
-  /// Builds the simulation with the link bodies at `poses`. Throws StartupError.
-  void build(const std::map<std::string, Pose>& poses);
+  /// Builds the simulation with the link bodies at `poses`, tf's poses at the ROS instant
+  /// `poses_stamp` (zero: now, e.g. static frames); simulated t = 0 is tied to that instant.
+  /// Throws StartupError.
+  void build(const std::map<std::string, Pose>& poses, const ros::Time& poses_stamp);
 
   /// The simulation (before start(), or from the solver thread).
   const Simulation& simulation() const
@@ -154,7 +156,7 @@ private:
   std::uint64_t steps_done_counter_ = 0;
   std::optional<fluid_sim::FluidSimConfig> pending_config_;
   bool reanchor_ = true;   // pacing restarts from the current instants (start, resume, reset, rtf change)
-  ros::Time built_at_;     // ROS time at which build() took its poses; zero once the anchor used it
+  ros::Time built_at_;     // ROS instant of the poses build() placed the links at; zero once the anchor used it
   double catch_up_ = 0.0;  // s, how far behind ROS time an anchor at built_at_ started
   // s; the links are never looked up further back than this (LinkPoses' tf buffer keeps 60 s),
   // nor is the start anchored further back at the build's instant.
