@@ -75,19 +75,28 @@ def node_cpu_seconds(pid):
 
 
 def find_node_pid(launch_pid):
-    """The fluid_sim_node process started by the launch (a descendant of it)."""
-    out = subprocess.run(["pgrep", "-f", "fluid_sim_node"], stdout=subprocess.PIPE, universal_newlines=True).stdout
-    for pid in (int(p) for p in out.split()):
+    """The fluid_sim_node process started by the launch (a descendant of it), from /proc."""
+    parent = {}
+    nodes = []
+    for entry in os.listdir("/proc"):
+        if not entry.isdigit():
+            continue
+        try:
+            with open("/proc/%s/stat" % entry) as f:
+                parent[int(entry)] = int(f.read().rsplit(")", 1)[1].split()[1])
+            with open("/proc/%s/cmdline" % entry, "rb") as f:
+                argv0 = f.read().split(b"\0")[0]
+        except (OSError, IndexError, ValueError):
+            continue  # ended meanwhile
+        if os.path.basename(argv0) == b"fluid_sim_node":
+            nodes.append(int(entry))
+    for pid in nodes:
         q = pid
-        while q > 1:  # walk up to the launch
-            try:
-                with open("/proc/%d/stat" % q) as f:
-                    q = int(f.read().rsplit(")", 1)[1].split()[1])
-            except OSError:
-                break
+        while q in parent and q > 1:  # up to the launch
+            q = parent[q]
             if q == launch_pid:
                 return pid
-    return None
+    raise SystemExit("no fluid_sim_node process under the launch (pid %d)" % launch_pid)
 
 
 class Recorder:
@@ -146,7 +155,10 @@ def measure(args, scene, label):
         for s in subs:
             s.unregister()
         if len(window) < 2:
-            raise SystemExit("%s: fewer than 2 stats messages in the window" % label)
+            with rec.lock:
+                last = rec.stats[-1][1]
+            raise SystemExit("%s: fewer than 2 stats messages of steps in the window (last status '%s'%s)"
+                             % (label, last.status, ", paused" if last.paused else ""))
         n = len(window)
         mean = lambda f: sum(f(m) for m in window) / n  # noqa: E731
         row.update({
