@@ -3,6 +3,7 @@
 
 #include "fluid_sim/core/bodies.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "fluid_sim/core/boundary_sampling.h"
@@ -69,6 +70,7 @@ BodySet::BodySet(const SceneConfig& scene)
     if (body.config.type == ShapeType::Cylinder) body.config.cylinder.axis.normalize();
     const double sample_spacing = sampleSpacing(cfg, scene.spacing);  // m
     body.local = sampleBoundary(body.config, sample_spacing, scene.spacing);
+    for (const Vec3d& p : body.local) body.reach = std::max(body.reach, p.norm());
     body.offset = offset;
     body.initial_pose = cfg.pose;
     body.pose = cfg.pose;
@@ -113,6 +115,30 @@ void BodySet::poseMoving(double time)
 {
   for (Body& body : bodies_)
     if (body.moving && !body.free) pose(body, time, false);  // free bodies are written by stepFree()
+}
+
+double BodySet::maxSpeedAhead(double time, double horizon) const
+{
+  double speed = 0.0;  // m/s
+  for (const Body& body : bodies_)
+  {
+    if (!body.moving) continue;
+    if (body.free || body.config.externally_posed)
+    {
+      speed = std::max(speed, body.v_origin.norm() + body.omega.norm() * body.reach);
+      continue;
+    }
+    // Scripted (Eq. A17): a particle's velocity is r (u + w x (x - about - u s)), and x - about - u s
+    // is its initial offset from the axis point, rotated about the axis: its distance from the
+    // axis stays that of the origin's initial offset plus reach at most.
+    const MotionConfig& m = body.config.motion;
+    const double r = motionRamp(m, time + horizon).r;     // the ramp's factor only rises
+    const double w = m.angular_velocity.norm();           // rad/s
+    Vec3d arm = body.initial_pose.translation - m.about;  // m
+    if (w > 0.0) arm -= arm.dot(m.angular_velocity / w) * (m.angular_velocity / w);
+    speed = std::max(speed, r * (m.linear_velocity.norm() + w * (arm.norm() + body.reach)));
+  }
+  return speed;
 }
 
 void BodySet::setPendingPose(std::size_t index, const Pose& pose, bool jump)

@@ -44,7 +44,8 @@ struct Simulation::Impl
       , neighbors(scene, constants.kernel)
       , forces(scene.viscosity, constants)
       , solver(makePressureSolver({scene, constants, fluid, bodies, neighbors}, fluid))
-      , dt_next(computeTimeStep(scene.time_step, fluid, constants.gravity, scene.spacing))
+      , dt_next(computeTimeStep(scene.time_step, fluid, constants.gravity, scene.spacing,
+                                bodies.maxSpeedAhead(0.0, scene.time_step.max)))
       , emitters(scene, bodies)
   {
     for (const RegionConfig& sink : scene.sinks) sink_totals.push_back({sink.name, 0, 0.0, 0.0});
@@ -65,9 +66,12 @@ struct Simulation::Impl
     if (scene.fill.relax)
     {
       // Eqs. A22, A23 (fill_relaxation.cpp), with a solver of its own: this one is not touched,
-      // and the velocities, and so dt_next, are the fill's again afterwards.
+      // and the velocities, and so dt_next, are the fill's again afterwards. Its pseudo-step
+      // (used without gravity) is the fluid's: the bodies are held still while it runs.
       PhaseTimer timer(fill_report.ms_relax);
-      relaxFill(scene, constants, fill.kind, dt_next, fluid, bodies, neighbors, fill_report);
+      relaxFill(scene, constants, fill.kind,
+                computeTimeStep(scene.time_step, fluid, constants.gravity, scene.spacing, 0.0), fluid, bodies,
+                neighbors, fill_report);
     }
   }
 
@@ -155,8 +159,9 @@ struct Simulation::Impl
     rep.fluid_particles = fluid.size();
     solver->report(rep);
 
-    // 8. The next time step (Eq. A15).
-    dt_next = computeTimeStep(scene.time_step, fluid, constants.gravity, scene.spacing);
+    // 8. The next time step (Eq. A15), for the fluid's speeds and the moving bodies' up to t + dt_max.
+    dt_next = computeTimeStep(scene.time_step, fluid, constants.gravity, scene.spacing,
+                              bodies.maxSpeedAhead(t, scene.time_step.max));
   }
 
   /// Removes the fluid particles inside a sink, each counted against the first sink (in the

@@ -54,12 +54,15 @@ std::size_t removeOutsideDomain(FluidParticles& fluid, const AxisBox& domain)
   return fluid.keepIf(inside);
 }
 
-double computeTimeStep(const TimeStepConfig& ts, const FluidParticles& fluid, const Vec3& gravity, double spacing)
+double computeTimeStep(const TimeStepConfig& ts, const FluidParticles& fluid, const Vec3& gravity, double spacing,
+                       double body_speed)
 {
   if (!ts.adaptive) return ts.fixed;
   const double vmax = parallelMax(fluid.size(), [&](std::size_t i) { return fluid.v[i].norm(); });  // m/s
-  // At rest the gravity-driven speed after one max step bounds it.
-  const double speed = std::max(vmax, gravity.norm() * ts.max);
+  // At rest the gravity-driven speed after one max step bounds it. A moving body counts too: a
+  // plunger at 5-8 m/s into still water (whose own speed allowed the longest step) moved 1-2
+  // spacings into it per step and blew it up in its first steps of contact.
+  const double speed = std::max({vmax, body_speed, gravity.norm() * ts.max});
   return std::clamp(ts.cfl * spacing / std::max(speed, 1e-12), ts.min, ts.max);
 }
 

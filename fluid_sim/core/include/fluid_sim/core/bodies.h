@@ -20,6 +20,7 @@ struct Body
 {
   BoundaryConfig config;
   std::vector<Vec3d> local;        // m, boundary particles in the body frame
+  double reach = 0.0;              // m, the largest |local|: how far a particle is from the origin
   std::size_t offset = 0;          // index of its first particle in BoundaryParticles
   Pose pose;                       // body -> world at the current time
   Pose initial_pose;               // at t = 0
@@ -111,6 +112,13 @@ public:
 
   /// Moves every moving body to its pose at `time` (s) and rewrites its particles (Eq. A17).
   void poseMoving(double time);
+
+  /// A bound on the speed (m/s) of any moving or free body's particle from `time` to
+  /// `time + horizon` (s), for the time step (Eq. A15): scripted bodies from their motion, at the
+  /// largest ramp factor in that window (the ramp only rises, and a body still before its start
+  /// counts from the window that reaches it); posed and free bodies from their velocities now,
+  /// |v_o| + |omega| reach. 0 without moving bodies.
+  double maxSpeedAhead(double time, double horizon) const;
 
   /// Free bodies: one step of dt (s) under gravity (m/s^2), the fluid's force and torque of the
   /// step just solved (Body::force, torque) and contacts (Eqs. A24-A27, rigid_dynamics.cpp,

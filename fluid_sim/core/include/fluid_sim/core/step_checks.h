@@ -26,7 +26,10 @@ inline bool insideBox(const Vec3& x, const Vec3& lo, const Vec3& hi)
 /// Removes the particles outside scene.domain; returns how many.
 std::size_t removeOutsideDomain(FluidParticles& fluid, const AxisBox& domain);
 
-/// Eq. A15: the next time step, s: the fixed one, or lambda s / max|v| clamped to [min, max].
-double computeTimeStep(const TimeStepConfig& ts, const FluidParticles& fluid, const Vec3& gravity, double spacing);
+/// Eq. A15: the next time step, s: the fixed one, or lambda s / max|v| clamped to [min, max],
+/// the largest speed that of the fluid's particles or `body_speed` (m/s, the moving bodies',
+/// BodySet::maxSpeedAhead), whichever is larger.
+double computeTimeStep(const TimeStepConfig& ts, const FluidParticles& fluid, const Vec3& gravity, double spacing,
+                       double body_speed);
 
 }  // namespace fluid_sim
