@@ -430,9 +430,8 @@ TEST(LinkPoses, TheBuildsPosesAreAllTakenAtOneInstantThatTfKnowsForEveryLink)
   // Each link's newest pose has its own stamp (a publisher's period before now). The node places
   // the water around the build's poses and poses the links at the build's instant in the first
   // step, so both must be the same instant: the newest one tf knows every link at. Before, the
-  // newest poses were taken with now as their instant, and the demo's paddle at 4x speed (1.2 m/s)
-  // started up to a spacing away from its hole in the water: NaN in the second step in half the
-  // starts.
+  // newest poses were taken with now as their instant, and the demo with its robot 4 times as
+  // fast started its paddle off its hole in the water: NaN in the second step in 3 of 6 starts.
   ros::Time::init();
   NodeOptions opt;
   LinkPoses links(opt);

@@ -4,8 +4,8 @@
 # the script must start the demo, receive its clouds and stats, and print a row with status ok
 # (exit 0). The figures themselves are not checked (speed is measured, not asserted:
 # docs/performance.md). Its first runs found the build's poses taken apart from the first step's
-# instant: at this factor the paddle started up to a spacing from its hole in the water and went
-# NaN in half the starts (LinkPoses.TheBuildsPosesAreAllTakenAtOneInstantThatTfKnowsForEveryLink).
+# instant: at this factor the paddle started off its hole in the water and went NaN in 3 of 6
+# starts (LinkPoses.TheBuildsPosesAreAllTakenAtOneInstantThatTfKnowsForEveryLink).
 set -uo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
 # shellcheck source=../../scripts/ros_env.sh

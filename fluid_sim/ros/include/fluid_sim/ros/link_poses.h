@@ -60,9 +60,9 @@ public:
   /// that instant; zero (poses unchanged) when the frames are all static or tf cannot give one of
   /// them there. Why: each frame's newest pose has its own stamp, a few ms (a publisher's period)
   /// before now; the simulation's first step poses the links at the build's instant, so the water
-  /// must be placed around the poses of that very instant. A link's newest poses, with the
-  /// instant taken as now, put a link moving at 1-2 m/s 1-2 spacings away from the water placed
-  /// around it, and the demo blew up in its second step (scripts/node_speed.py, factor 4).
+  /// must be placed around the poses of that very instant. With each link's newest pose and now
+  /// as their instant, a fast link started off the hole the water was placed around: the demo with
+  /// its robot 4 times as fast (scripts/node_speed.py) went NaN in its second step in 3 of 6 starts.
   ros::Time posesAtOneInstant(const std::vector<std::string>& frames, std::map<std::string, Pose>& poses);
 
   /// The first link whose newest pose in tf is older than `stamp` (tf has not got there yet: its
