@@ -301,7 +301,7 @@ def case1(S):
     # only) at the ladder.
     keys = [(m, dt) for m in METHODS for dt in all_dts] + ([] if S.quick else [(PAPER_MIRRORING, dt) for dt in dts])
     # The paper's solver starts each solve from zero pressure, and so does this reproduction of its
-    # Table 1 (solver.cold_start: zero, pinned here; the default is jacobi). With the Jacobi first
+    # Table 1 (solver.cold_start: zero, pinned here, also the default). With the Jacobi first
     # guess (solver.cold_start: jacobi, docs/method.md Eq. A10a) the quick scale converges within the 2
     # minimum iterations at every time step (2.00 at 0.5, 1 and 2 ms for every method), so
     # iterations could not grow with dt there.

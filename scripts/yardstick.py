@@ -10,7 +10,7 @@
 
 For every case (spacing S in m, N steps of 1 ms) and every round, it runs in turn
   1. ours, cold:  fluid_sim_bench SCENE --spacing S --method all --warmup 0 --steps N --threads T --json F
-                  --set solver.cold_start=C   (C from --cold-start: jacobi, the default, or zero)
+                  --set solver.cold_start=C   (C from --cold-start: zero, the default, or jacobi)
   2. ours, warm:  the same with --set solver.warm_start=true
   3. theirs:      OMP_NUM_THREADS=T SPHSimulator --no-gui --stopAt ... --output-dir D scene.json
 so that rounds alternate ours-theirs-ours-theirs, and prints one table: ms per step, µs per
@@ -280,7 +280,7 @@ def run_ours(args, spacing, steps, warm, workdir, tag):
         dens = r["ms_density_per_step"]
         rows.append({
             "code": "ours", "method": r["method"],
-            "start": "warm" if warm else ("cold" if args.cold_start == "jacobi" else f"cold ({args.cold_start})"),
+            "start": "warm" if warm else ("cold" if args.cold_start == "zero" else f"cold ({args.cold_start})"),
             "fluid": r["fluid_particles"], "boundary": r["boundary_particles"], "steps": r["steps"],
             "sim_time": r["sim_time_s"], "ms": total, "nbr": nbr, "div": div, "dens": dens,
             "rest": total - nbr - div - dens,
@@ -456,9 +456,9 @@ def main():
     p.add_argument("--threads", type=int, default=2)
     p.add_argument("--target", type=float, default=0.25, help="ours/theirs per particle-step to meet")
     p.add_argument("--out", help="directory for the scenes, logs and JSON (default: a temporary one)")
-    p.add_argument("--cold-start", choices=["zero", "jacobi"], default="jacobi",
-                   help="our cold rows' solver.cold_start (default jacobi, the scene default; zero: the "
-                        "paper's start, the default before 2026-12-03)")
+    p.add_argument("--cold-start", choices=["zero", "jacobi"], default="zero",
+                   help="our cold rows' solver.cold_start (default zero, the paper's start and the scene "
+                        "default; jacobi: the Jacobi first guess, Eq. A10a)")
     p.add_argument("--sph-fluid", choices=["block", "rest"], default="block",
                    help="SPlisHSPlasH's water: 'block' (default, the issue's setup: a FluidBlock on our "
                         "lattice, starting at 0.8 of its rest density) or 'rest' (the same particles at its "

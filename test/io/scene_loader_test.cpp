@@ -34,7 +34,7 @@ solver:
   min_divergence_iterations: 2
   divergence_solve: false
   warm_start: true
-  cold_start: zero
+  cold_start: jacobi
   warm_start_guess: damped
   omega: 0.6
   clamp_boundary_pressure: false
@@ -139,7 +139,7 @@ TEST(SceneLoader, FullExampleParses)
   EXPECT_EQ(s.solver.min_divergence_iterations, 2);
   EXPECT_FALSE(s.solver.divergence_solve);
   EXPECT_TRUE(s.solver.warm_start);
-  EXPECT_EQ(s.solver.cold_start, ColdStart::Zero);  // the default is jacobi
+  EXPECT_EQ(s.solver.cold_start, ColdStart::Jacobi);  // the default is zero
   EXPECT_EQ(s.solver.warm_start_guess, WarmStartGuess::Damped);
   EXPECT_DOUBLE_EQ(s.solver.omega, 0.6);
   EXPECT_FALSE(s.solver.clamp_boundary_pressure);
@@ -221,7 +221,7 @@ TEST(SceneLoader, DefaultsForAbsentKeys)
   EXPECT_FALSE(s.time_step.adaptive);
   EXPECT_DOUBLE_EQ(s.time_step.fixed, defaults.time_step.fixed);
   EXPECT_EQ(s.solver.boundary_pressure, defaults.solver.boundary_pressure);
-  EXPECT_EQ(s.solver.cold_start, ColdStart::Jacobi);
+  EXPECT_EQ(s.solver.cold_start, ColdStart::Zero);
   EXPECT_EQ(s.solver.warm_start_guess, WarmStartGuess::Previous);
   EXPECT_DOUBLE_EQ(s.rest_density, defaults.rest_density);
   EXPECT_TRUE(s.boundaries.empty());

@@ -308,8 +308,10 @@ private:
   /// Eq. A10: the first guess of a solve whose source and diagonal are set, non-zero only where
   /// the water is compressing now (s_i < 0) and is at or above rest density. Cold (no
   /// solver.warm_start): one unrelaxed Jacobi step from zero there, p_i = s_i / A_i (Eq. A8 with
-  /// omega = 1 and D_i = 0), which needs no pair pass (solver.cold_start: jacobi, the default), or
-  /// zero everywhere (solver.cold_start: zero, the paper's start). Warm: the previous step's
+  /// omega = 1 and D_i = 0), which needs no pair pass (solver.cold_start: jacobi), or zero
+  /// everywhere (solver.cold_start: zero, the paper's start and the default: with the Jacobi step
+  /// the full validation's 1 m MLS column blew up and its submerged cube read 9 % more buoyancy,
+  /// docs/method_notes.md, Still water). Warm: the previous step's
   /// pressure there (solver.warm_start_guess: previous) or half of it plus the Jacobi step (damped,
   /// Eq. A10b). Elsewhere a particle starts from zero: a guess on a particle that has left the
   /// bulk (a splash, with one or two neighbours, a density near 0.3 rho0 and a tiny diagonal)

@@ -240,14 +240,14 @@ struct ViscosityConfig
 struct SolverConfig
 {
   BoundaryPressureMethod boundary_pressure = BoundaryPressureMethod::Mls;  // key: solver.boundary_pressure
-  double density_error = 0.001;              // relative, mean over particles   key: solver.density_error
-  double divergence_error = 0.001;           // relative per step                key: solver.divergence_error
-  int min_iterations = 2;                    // density solve                    key: solver.min_iterations
-  int max_iterations = 100;                  // both solves                      key: solver.max_iterations
-  int min_divergence_iterations = 1;         //                                key: solver.min_divergence_iterations
-  bool divergence_solve = true;              // key: solver.divergence_solve (paper Sec. 5.1 runs without it)
-  bool warm_start = false;                   // key: solver.warm_start
-  ColdStart cold_start = ColdStart::Jacobi;  // without warm_start  key: solver.cold_start: jacobi | zero
+  double density_error = 0.001;            // relative, mean over particles   key: solver.density_error
+  double divergence_error = 0.001;         // relative per step                key: solver.divergence_error
+  int min_iterations = 2;                  // density solve                    key: solver.min_iterations
+  int max_iterations = 100;                // both solves                      key: solver.max_iterations
+  int min_divergence_iterations = 1;       //                                key: solver.min_divergence_iterations
+  bool divergence_solve = true;            // key: solver.divergence_solve (paper Sec. 5.1 runs without it)
+  bool warm_start = false;                 // key: solver.warm_start
+  ColdStart cold_start = ColdStart::Zero;  // without warm_start  key: solver.cold_start: zero | jacobi
   WarmStartGuess warm_start_guess = WarmStartGuess::Previous;  // key: solver.warm_start_guess
   double omega = 0.5;                                          // relaxed Jacobi factor            key: solver.omega
   bool clamp_boundary_pressure = true;  // p_b >= 0 in the density solve key: solver.clamp_boundary_pressure
