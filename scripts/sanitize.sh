@@ -24,8 +24,8 @@
 #                   sanitizer
 #   --no-rostest    skip the tests that start a ROS master (the rostests)
 #
-# Never run here: the demo (ros_demo_headless), the recording (ros_record_bag) and the short soak
-# (ros_soak_short). They run the node paced by the wall clock (robot_state_publisher poses the
+# Never run here: the demo (ros_demo_headless), the recording (ros_record_bag), the short soak
+# (ros_soak_short) and the node's speed (ros_node_speed). They run the node paced by the wall clock (robot_state_publisher poses the
 # paddle at ROS time, real-time factor 1, 0.5 or 0.25) and check that it keeps up; the
 # instrumented node steps about 500 times slower than real time (ASan, 2026-12-02: the demo's
 # first steps took 2 s each), falls 30 s behind, draws the paddle along and the water goes
@@ -93,9 +93,9 @@ export PYENV_VERSION=system
 # scripts/test.sh leaves them out of the double build) and the runner's whole-scene tests.
 long_tests='Buoyancy|Rest\.|WarmStart|Stability\.|StlSphereFeels'
 # Tests that start a ROS master.
-ros_master_tests='rostest|ros_demo_headless|ros_soak_short|ros_record_bag'
+ros_master_tests='rostest|ros_demo_headless|ros_soak_short|ros_record_bag|ros_node_speed'
 # Tests paced by the wall clock, never run here (see the top of this file).
-wall_clock_tests='ros_demo_headless|ros_soak_short|ros_record_bag'
+wall_clock_tests='ros_demo_headless|ros_soak_short|ros_record_bag|ros_node_speed'
 
 # The instrumented oneTBB for the tsan flavour; prints its CMake package folder.
 tsan_tbb() {
@@ -155,7 +155,7 @@ for flavour in "${flavours[@]}"; do
   build_time=$((SECONDS - start))
 
   exclude="validation_|$wall_clock_tests"
-  log "$flavour: not run: ros_demo_headless, ros_record_bag, ros_soak_short (paced by the wall clock;" \
+  log "$flavour: not run: ros_demo_headless, ros_record_bag, ros_soak_short, ros_node_speed (paced by the wall clock;" \
     "the instrumented node is about 500 times slower than real time; see the top of $0)"
   ((quick)) && exclude+="|$long_tests|Runner\\.|Determinism\\."
   ((rostest)) || exclude+="|$ros_master_tests"
