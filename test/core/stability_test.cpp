@@ -119,6 +119,8 @@ TEST(Stability, LimitedMlsSurvivesTheCylinderDamBreakAtOneMillisecond)
   EXPECT_LT(worst, 1.0);
 }
 
+namespace
+{
 /// A still 16 cm water layer at 2 cm in a 0.3 x 0.2 m tank, MLS, the CFL-adaptive step up to 4 ms
 /// (the demo's settings), and a 10 x 8 x 4 cm box plunger 4 cm above the water driven straight
 /// down at `speed` (m/s) from `start` (s).
@@ -153,6 +155,7 @@ SceneConfig plungerStrike(double speed, double start)
   s.boundaries.push_back(plunger);
   return s;
 }
+}  // namespace
 
 TEST(Stability, AFastBodyStrikingStillWaterStaysStableWithTheAdaptiveStep)
 {
