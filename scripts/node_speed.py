@@ -19,7 +19,8 @@ time it measures over --seconds s:
   cpu          the node's CPU time per wall s, in cores (2 = both cores of this machine)
   it/step      density and divergence iterations per step (stats samples)
 
-One row per --spacing (the scene's spacing changed, nothing else; default: the scene's own).
+One row per --spacing (the scene's spacing changed, nothing else; default: the scene's own). The
+changed copy is written to --out-dir, so file names in such a scene must not be relative.
 
   PYENV_VERSION=system /usr/bin/python3 scripts/node_speed.py                    # the demo, paced
   PYENV_VERSION=system /usr/bin/python3 scripts/node_speed.py --real-time-factor 3 \\
