@@ -237,6 +237,7 @@ def main():
             r["label"], r["fluid_particles"], r["rtf"], r["dt_ms"], r["density_it"], r["divergence_it"],
             r["clouds_per_s"], r["cpu_cores"], r["behind_warnings"], ",".join(r["status"])))
     if args.json:
+        os.makedirs(os.path.dirname(os.path.abspath(args.json)), exist_ok=True)
         with open(args.json, "w") as f:
             json.dump({"real_time_factor": args.real_time_factor, "warmup_s": args.warmup,
                        "seconds": args.seconds, "rows": rows}, f, indent=1)
