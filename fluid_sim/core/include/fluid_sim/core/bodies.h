@@ -113,11 +113,10 @@ public:
   /// Moves every moving body to its pose at `time` (s) and rewrites its particles (Eq. A17).
   void poseMoving(double time);
 
-  /// A bound on the speed (m/s) of any moving or free body's particle from `time` to
-  /// `time + horizon` (s), for the time step (Eq. A15): scripted bodies from their motion, at the
-  /// largest ramp factor in that window (the ramp only rises, and a body still before its start
-  /// counts from the window that reaches it); posed and free bodies from their velocities now,
-  /// |v_o| + |omega| reach. 0 without moving bodies.
+  /// A bound on the speed (m/s) of any scripted body's particle from `time` to `time + horizon`
+  /// (s), for the time step (Eq. A15), from its motion at the largest ramp factor in that window
+  /// (the ramp only rises, and a body still before its start counts from the window that reaches
+  /// it). Free and posed bodies are not counted (bodies.cpp says why). 0 without scripted motion.
   double maxSpeedAhead(double time, double horizon) const;
 
   /// Free bodies: one step of dt (s) under gravity (m/s^2), the fluid's force and torque of the
