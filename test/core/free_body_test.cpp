@@ -11,6 +11,7 @@
 #include "fluid_sim/core/bodies.h"
 #include "fluid_sim/core/rigid_dynamics.h"
 #include "fluid_sim/core/simulation.h"
+#include "small_scene.h"
 
 using namespace fluid_sim;
 
@@ -39,27 +40,6 @@ TriangleMesh cubeMesh(double a, const Vec3d& o)
   return m;
 }
 
-/// A box tank (container) `size` wide with water `depth` deep (0: dry), spacing `s`.
-SceneConfig tank(double s, const Vec3d& size, double depth)
-{
-  SceneConfig scene;
-  scene.spacing = s;
-  scene.domain = {Vec3d(-0.1, -0.1, -0.1), size + Vec3d(0.1, 0.1, 0.1)};
-  scene.time_step.fixed = 0.001;
-  scene.viscosity.model = ViscosityModel::Xsph;
-  scene.viscosity.coefficient = 0.01;
-  BoundaryConfig t;
-  t.name = "tank";
-  t.type = ShapeType::Box;
-  t.box = {Vec3d::Zero(), size};
-  t.inside = true;
-  scene.boundaries.push_back(t);
-  // Without water, a drop of 8 particles in a corner (a scene needs fluid), away from the bodies.
-  FluidBlockConfig f;
-  f.box = {Vec3d::Zero(), depth > 0.0 ? Vec3d(size.x(), size.y(), depth) : Vec3d(2 * s, 2 * s, 2 * s)};
-  scene.fluid.push_back(f);
-  return scene;
-}
 }  // namespace
 
 TEST(FreeBodyMass, PrimitivesAndMeshesHaveTheirTextbookProperties)
@@ -111,7 +91,7 @@ TEST(FreeBodyMass, PrimitivesAndMeshesHaveTheirTextbookProperties)
 
 TEST(FreeBodyMass, OpenOrInsideOutMeshesAndBadEntriesAreRefusedByName)
 {
-  SceneConfig s = tank(0.05, Vec3d(1, 1, 1), 0.0);
+  SceneConfig s = test::waterTank(0.05, Vec3d(1, 1, 1), 0.0);
   BoundaryConfig mesh = freeBox("crate", Vec3d::Zero(), Vec3d::Zero(), 600.0);
   mesh.type = ShapeType::Mesh;
   mesh.mesh = cubeMesh(0.2, Vec3d(0.4, 0.4, 0.4));
@@ -150,7 +130,7 @@ TEST(FreeBodyMass, OpenOrInsideOutMeshesAndBadEntriesAreRefusedByName)
 
 TEST(FreeBody, FliesOnAParabolaAndKeepsItsSpinWithoutFluid)
 {
-  SceneConfig s = tank(0.05, Vec3d(1, 1, 1), 0.0);
+  SceneConfig s = test::waterTank(0.05, Vec3d(1, 1, 1), 0.0);
   s.domain = {Vec3d(-1, -1, -2), Vec3d(2, 1, 1)};
   s.boundaries.clear();
   s.fluid[0].box = {Vec3d(1.5, 0.5, 0.5), Vec3d(1.6, 0.6, 0.6)};  // away from the body
@@ -199,7 +179,7 @@ TEST(FreeBody, ANonFiniteStepIsNamedAndLeavesThePoseAlone)
 {
   // What the demo once showed under load: a free body whose step gave NaN spread to every
   // particle in the next step. Now the step names the body and where the NaN came from.
-  SceneConfig s = tank(0.05, Vec3d(1, 1, 1), 0.0);
+  SceneConfig s = test::waterTank(0.05, Vec3d(1, 1, 1), 0.0);
   s.boundaries.clear();
   s.boundaries.push_back(freeBox("brick", Vec3d(-0.1, -0.05, -0.025), Vec3d(0.1, 0.05, 0.025), 800.0));
   s.boundaries.back().pose.translation = Vec3d(0.5, 0.5, 0.5);
@@ -238,7 +218,7 @@ struct Resting
 /// A dense box dropped 3 cm onto a dry tank floor, for 1 s, with the given contact model.
 Resting dropOnFloor(double s, ContactModel model)
 {
-  SceneConfig scene = tank(s, Vec3d(0.4, 0.4, 0.4), 0.0);
+  SceneConfig scene = test::waterTank(s, Vec3d(0.4, 0.4, 0.4), 0.0);
   scene.contacts.model = model;
   scene.boundaries.push_back(freeBox("block", Vec3d(0.12, 0.12, 0.03), Vec3d(0.24, 0.22, 0.09), 2000.0));
   Simulation sim(scene);
@@ -304,7 +284,7 @@ struct Floating
 Floating floatBox(double s, double a, double h, double density, double duration)
 {
   const Vec3d size(0.3, 0.3, 0.3);
-  SceneConfig scene = tank(s, size, 0.15);
+  SceneConfig scene = test::waterTank(s, size, 0.15);
   const double expected = density / 1000.0 * h;  // m
   // The level once the box displaces its own mass of water: rest level plus that over the area.
   const double level = 0.15 + density * a * a * h / 1000.0 / (size.x() * size.y());  // m
@@ -370,7 +350,7 @@ TEST(FreeBody, HeavySphereSinksToTheFloorAndKeepsTheWaterOut)
 {
   // A sphere of 2000 kg/m^3, radius 4 cm (4 spacings across), released at the surface.
   const double s = 0.02, radius = 0.04;
-  SceneConfig scene = tank(s, Vec3d(0.3, 0.3, 0.3), 0.15);
+  SceneConfig scene = test::waterTank(s, Vec3d(0.3, 0.3, 0.3), 0.15);
   BoundaryConfig ball;
   ball.name = "ball";
   ball.type = ShapeType::Sphere;
@@ -413,7 +393,7 @@ struct StackAndPush
 /// at 0.3 m/s (kinematic: it pushes and is not pushed back), for 1 s.
 StackAndPush stackAndPush(double s, ContactModel model)
 {
-  SceneConfig scene = tank(s, Vec3d(0.6, 0.4, 0.4), 0.0);
+  SceneConfig scene = test::waterTank(s, Vec3d(0.6, 0.4, 0.4), 0.0);
   scene.contacts.model = model;
   scene.fluid[0].box = {Vec3d(0.56, 0.36, 0.0), Vec3d(0.6, 0.4, 0.04)};  // the drop, in a far corner
   scene.boundaries.push_back(freeBox("bottom", Vec3d(0.04, 0.24, 0.0), Vec3d(0.16, 0.36, 0.06), 1000.0));

@@ -24,22 +24,7 @@ constexpr double kG = 9.81;  // m/s^2
 /// hydrostatic tests' column (MLS, XSPH 0.01).
 SceneConfig column()
 {
-  SceneConfig s;
-  s.spacing = 0.02;
-  s.domain = {Vec3d(-0.1, -0.1, -0.1), Vec3d(0.3, 0.3, 0.7)};
-  s.time_step.fixed = 0.001;
-  s.viscosity.model = ViscosityModel::Xsph;
-  s.viscosity.coefficient = 0.01;
-  FluidBlockConfig f;
-  f.box = {Vec3d(0, 0, 0), Vec3d(0.2, 0.2, 0.4)};
-  s.fluid.push_back(f);
-  BoundaryConfig tank;
-  tank.name = "tank";
-  tank.type = ShapeType::Box;
-  tank.box = {Vec3d(0, 0, 0), Vec3d(0.2, 0.2, 0.6)};
-  tank.inside = true;
-  s.boundaries.push_back(tank);
-  return s;
+  return test::waterTank(0.02, Vec3d(0.2, 0.2, 0.6), 0.4);
 }
 
 RegionConfig boxRegion(const std::string& name, const Vec3d& min, const Vec3d& max, const Pose& pose = Pose())

@@ -9,6 +9,7 @@
 #include <cstdio>
 
 #include "fluid_sim/core/simulation.h"
+#include "small_scene.h"
 
 using namespace fluid_sim;
 
@@ -126,9 +127,7 @@ namespace
 /// down at `speed` (m/s) from `start` (s).
 SceneConfig plungerStrike(double speed, double start)
 {
-  SceneConfig s;
-  s.spacing = 0.02;
-  s.domain = {Vec3d(-0.1, -0.1, -0.1), Vec3d(0.4, 0.3, 0.5)};
+  SceneConfig s = test::waterTank(0.02, Vec3d(0.3, 0.2, 0.4), 0.16);
   s.time_step.adaptive = true;
   s.time_step.cfl = 0.4;
   s.time_step.min = 1e-5;
@@ -136,17 +135,8 @@ SceneConfig plungerStrike(double speed, double start)
   s.solver.boundary_pressure = BoundaryPressureMethod::Mls;
   s.solver.density_error = 0.001;
   s.solver.divergence_error = 0.001;
-  s.viscosity.model = ViscosityModel::Xsph;
   s.viscosity.coefficient = 0.05;
   s.viscosity.boundary = 0.05;
-  FluidBlockConfig f;
-  f.box = {Vec3d(0, 0, 0), Vec3d(0.3, 0.2, 0.16)};
-  s.fluid.push_back(f);
-  BoundaryConfig tank;
-  tank.name = "tank";
-  tank.box = {Vec3d(0, 0, 0), Vec3d(0.3, 0.2, 0.4)};
-  tank.inside = true;
-  s.boundaries.push_back(tank);
   BoundaryConfig plunger;
   plunger.name = "plunger";
   plunger.box = {Vec3d(0.1, 0.06, 0.2), Vec3d(0.2, 0.14, 0.24)};

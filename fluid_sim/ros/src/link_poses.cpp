@@ -150,17 +150,9 @@ ros::Time LinkPoses::posesAtOneInstant(const std::vector<std::string>& frames, s
   ros::Time common;  // the oldest non-zero newest stamp
   for (const std::string& frame : frames)
   {
-    ros::Time at;
-    try
-    {
-      // The newest instant the whole chain fixed frame -> frame is known at (zero: all static).
-      at = buffer_.lookupTransform(opt_.fixed_frame, frame, ros::Time(0)).header.stamp;
-    }
-    catch (const tf2::TransformException&)
-    {
-      return ros::Time();
-    }
-    if (!at.isZero() && (common.isZero() || at < common)) common = at;
+    const std::optional<ros::Time> at = newestStamp(frame);
+    if (!at) return ros::Time();
+    if (!at->isZero() && (common.isZero() || *at < common)) common = *at;
   }
   if (common.isZero()) return common;
   std::map<std::string, Pose> at_common;
@@ -196,24 +188,27 @@ std::map<std::string, Pose> LinkPoses::newestPoses(ros::Time& stamp)
   return poses;
 }
 
+std::optional<ros::Time> LinkPoses::newestStamp(const std::string& frame)
+{
+  try
+  {
+    // The newest instant the whole chain fixed frame -> frame is known at (zero: all static).
+    return buffer_.lookupTransform(opt_.fixed_frame, frame, ros::Time(0)).header.stamp;
+  }
+  catch (const tf2::TransformException&)
+  {
+    return std::nullopt;
+  }
+}
+
 std::string LinkPoses::notYetAt(const ros::Time& stamp, ros::Time* newest)
 {
   for (const LinkBody& lb : links_)
   {
-    ros::Time at;
-    try
+    const std::optional<ros::Time> at = newestStamp(lb.link);
+    if (!at || (!at->isZero() && *at < stamp))
     {
-      // The newest instant the whole chain fixed frame -> link is known at (zero: all static).
-      at = buffer_.lookupTransform(opt_.fixed_frame, lb.link, ros::Time(0)).header.stamp;
-    }
-    catch (const tf2::TransformException&)
-    {
-      *newest = ros::Time();
-      return lb.link;
-    }
-    if (!at.isZero() && at < stamp)
-    {
-      *newest = at;
+      *newest = at ? *at : ros::Time();
       return lb.link;
     }
   }

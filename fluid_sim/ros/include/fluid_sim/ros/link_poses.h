@@ -88,6 +88,10 @@ public:
   }
 
 private:
+  /// The newest instant tf knows the whole chain fixed frame -> `frame` at (zero: all static);
+  /// nullopt when it does not know the chain.
+  std::optional<ros::Time> newestStamp(const std::string& frame);
+
   /// One body the node poses from tf.
   struct LinkBody
   {
