@@ -6,12 +6,14 @@
         --sph-bin /path/to/SPlisHSPlasH/bin/SPHSimulator \
         --sph-scene-dir /path/to/SPlisHSPlasH/data/Scenes \
         [--case 0.031:300:3 --case 0.017:60:2] [--rounds 2] [--threads 2] [--out DIR]
-        [--sph-fluid block|rest] [--cold-start zero|jacobi]
+        [--sph-fluid block|rest] [--cold-start zero|jacobi] [--set KEY=VALUE ...]
 
 For every case (spacing S in m, N steps of 1 ms) and every round, it runs in turn
   1. ours, cold:  fluid_sim_bench SCENE --spacing S --method all --warmup 0 --steps N --threads T --json F
                   --set solver.cold_start=C   (C from --cold-start: zero, the default, or jacobi)
   2. ours, warm:  the same with --set solver.warm_start=true
+     (each --set KEY=VALUE given to this script is passed on to both of our runs, e.g.
+     solver.chebyshev_rho=0.95; the rows' start then names it)
   3. theirs:      OMP_NUM_THREADS=T SPHSimulator --no-gui --stopAt ... --output-dir D scene.json
 so that rounds alternate ours-theirs-ours-theirs, and prints one table: ms per step, µs per
 fluid particle-step, ours/theirs per particle-step against SPlisHSPlasH's run of the same round,
@@ -267,6 +269,8 @@ def run_ours(args, spacing, steps, warm, workdir, tag):
         cmd += ["--set", "solver.warm_start=true"]
     else:  # named even when it is the scene default, so that the rows say what they ran
         cmd += ["--set", f"solver.cold_start={args.cold_start}"]
+    for override in args.set:
+        cmd += ["--set", override]
     _, wall, cpu = run(cmd, log=os.path.join(workdir, f"ours_{tag}.log"))
     print(f"    ours {tag}: {wall:.0f} s wall, {cpu:.0f} s CPU ({cpu / wall / args.threads:.0%} of {args.threads} cores)",
           flush=True)
@@ -280,7 +284,8 @@ def run_ours(args, spacing, steps, warm, workdir, tag):
         dens = r["ms_density_per_step"]
         rows.append({
             "code": "ours", "method": r["method"],
-            "start": "warm" if warm else ("cold" if args.cold_start == "zero" else f"cold ({args.cold_start})"),
+            "start": ("warm" if warm else ("cold" if args.cold_start == "zero" else f"cold ({args.cold_start})")) +
+                     "".join(f" [{o}]" for o in args.set),
             "fluid": r["fluid_particles"], "boundary": r["boundary_particles"], "steps": r["steps"],
             "sim_time": r["sim_time_s"], "ms": total, "nbr": nbr, "div": div, "dens": dens,
             "rest": total - nbr - div - dens,
@@ -459,6 +464,8 @@ def main():
     p.add_argument("--cold-start", choices=["zero", "jacobi"], default="zero",
                    help="our cold rows' solver.cold_start (default zero, the paper's start and the scene "
                         "default; jacobi: the Jacobi first guess, Eq. A10a)")
+    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                   help="scene override for our runs, cold and warm (repeatable), e.g. solver.chebyshev_rho=0.95")
     p.add_argument("--sph-fluid", choices=["block", "rest"], default="block",
                    help="SPlisHSPlasH's water: 'block' (default, the issue's setup: a FluidBlock on our "
                         "lattice, starting at 0.8 of its rest density) or 'rest' (the same particles at its "

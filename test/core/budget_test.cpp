@@ -72,6 +72,16 @@ TEST(Budget, IterationAndTimeStepLimits)
   s.solver.max_iterations = 10000;
   s.solver.min_iterations = 10000;
   EXPECT_EQ(errorOf(s), "");
+  // Chebyshev's radius (Eq. A8a) below 1 (at 1 its weights grow without bound), its delay >= 1
+  // (the first extrapolated sweep needs the sweep before).
+  s = smallScene();
+  s.solver.chebyshev_rho = 1.0;
+  EXPECT_NE(errorOf(s).find("solver.chebyshev_rho: must be in [0, 1) (0 = off), got 1"), std::string::npos)
+      << errorOf(s);
+  s.solver.chebyshev_rho = 0.0;
+  EXPECT_EQ(errorOf(s), "");
+  s.solver.chebyshev_delay = 0;
+  EXPECT_NE(errorOf(s).find("solver.chebyshev_delay: must be in [1, 10000], got 0"), std::string::npos) << errorOf(s);
 
   s = smallScene();
   s.time_step.adaptive = true;

@@ -37,6 +37,8 @@ solver:
   cold_start: jacobi
   warm_start_guess: damped
   omega: 0.6
+  chebyshev_rho: 0.9
+  chebyshev_delay: 4
   clamp_boundary_pressure: false
   mls_fit_radius: 2.5
   mls_eigen_tolerance: 0.05
@@ -142,6 +144,8 @@ TEST(SceneLoader, FullExampleParses)
   EXPECT_EQ(s.solver.cold_start, ColdStart::Jacobi);  // the default is zero
   EXPECT_EQ(s.solver.warm_start_guess, WarmStartGuess::Damped);
   EXPECT_DOUBLE_EQ(s.solver.omega, 0.6);
+  EXPECT_DOUBLE_EQ(s.solver.chebyshev_rho, 0.9);
+  EXPECT_EQ(s.solver.chebyshev_delay, 4);
   EXPECT_FALSE(s.solver.clamp_boundary_pressure);
   EXPECT_DOUBLE_EQ(s.solver.mls_fit_radius, 2.5);
   EXPECT_DOUBLE_EQ(s.solver.mls_eigen_tolerance, 0.05);
@@ -223,6 +227,8 @@ TEST(SceneLoader, DefaultsForAbsentKeys)
   EXPECT_EQ(s.solver.boundary_pressure, defaults.solver.boundary_pressure);
   EXPECT_EQ(s.solver.cold_start, ColdStart::Zero);
   EXPECT_EQ(s.solver.warm_start_guess, WarmStartGuess::Previous);
+  EXPECT_DOUBLE_EQ(s.solver.chebyshev_rho, 0.0);  // Eq. A8a off by default: plain sweeps
+  EXPECT_EQ(s.solver.chebyshev_delay, 3);
   EXPECT_DOUBLE_EQ(s.rest_density, defaults.rest_density);
   EXPECT_TRUE(s.boundaries.empty());
   EXPECT_DOUBLE_EQ(s.duration, defaults.duration);

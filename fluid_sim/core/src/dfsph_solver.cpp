@@ -384,15 +384,18 @@ private:
     double error = 0.0, max_residual = 0.0;
   };
 
-  /// One relaxed Jacobi sweep: D_i (Eq. A7), p_i += omega (s_i - D_i)/A_i (Eq. A8). Returns the
-  /// stopping error (Eq. A9) of the pressures before this update.
-  double jacobiUpdate(std::vector<Real>& p, double dt, bool clamp_p)
+  /// One relaxed Jacobi sweep: D_i (Eq. A7), p_i += omega (s_i - D_i)/A_i (Eq. A8), extrapolated
+  /// with the Chebyshev weight (Eq. A8a; 1 = none). Returns the stopping error (Eq. A9) of the
+  /// pressures before this update.
+  double jacobiUpdate(std::vector<Real>& p, double dt, bool clamp_p, Real weight)
   {
     const std::size_t n = fluid_.size();
     const Real omega = Real(scene_.solver.omega);
     const Real dt2_over_rho0 = Real(dt * dt / rho0_);
-    // Any first guess but zero can be too high somewhere: then |residual| counts (sweep()).
-    const bool guessed = scene_.solver.warm_start || scene_.solver.cold_start == ColdStart::Jacobi;
+    // Any first guess but zero can be too high somewhere, and so can an extrapolated sweep
+    // (Eq. A8a, weights above 1): then |residual| counts (sweep()).
+    const bool guessed =
+        scene_.solver.warm_start || scene_.solver.cold_start == ColdStart::Jacobi || scene_.solver.chebyshev_rho > 0;
     // The sweep is itself the reduction of its two figures, the error sum (Eq. A9) and the largest
     // active residual, in the chunks and order of parallelSum: the same sums as from per-particle
     // arrays, without the arrays (8 B per particle).
@@ -400,7 +403,7 @@ private:
         n, SweepFigures{},
         [&](const tbb::blocked_range<std::size_t>& range, SweepFigures& acc) {
           for (std::size_t i = range.begin(); i != range.end(); ++i)
-            sweep(i, p, clamp_p, omega, dt2_over_rho0, guessed, acc);
+            sweep(i, p, clamp_p, omega, weight, dt2_over_rho0, guessed, acc);
         },
         [](SweepFigures& left, const SweepFigures& right) {
           left.error += right.error;
@@ -413,8 +416,8 @@ private:
 
   /// Particle i's part of jacobiUpdate(): D_i, the pressure update, and its error and residual
   /// figures added to `acc`.
-  void sweep(std::size_t i, std::vector<Real>& p, bool clamp_p, Real omega, Real dt2_over_rho0, bool guessed,
-             SweepFigures& acc)
+  void sweep(std::size_t i, std::vector<Real>& p, bool clamp_p, Real omega, Real weight, Real dt2_over_rho0,
+             bool guessed, SweepFigures& acc)
   {
     Real div = mass_ * fluidDivergence(i, a4_);
     div += a4_[i].template head<3>().dot(grad_b_[i]);  // boundary particles are not accelerated by the fluid
@@ -426,11 +429,15 @@ private:
     // measure).
     const Real counted = (guessed && p[i] != 0) ? std::abs(residual) : std::max(residual, Real(0));
     acc.error += double(Real(counted * dt2_over_rho0));
+    const Real now = p[i];
     if (diagonal_[i] != 0)
     {
-      Real next = p[i] - omega * residual / diagonal_[i];
+      Real next = now - omega * residual / diagonal_[i];
+      // Eq. A8a: p^(k+1) = w (A8's update of p^k - p^(k-1)) + p^(k-1), before the clamp.
+      if (weight != Real(1)) next = weight * (next - p_before_[i]) + p_before_[i];
       p[i] = clamp_p ? std::max(next, Real(0)) : next;
     }
+    if (!p_before_.empty()) p_before_[i] = now;  // p^(k-1) of the next sweep (Eq. A8a)
     // The residual figure counts where the constraint is active: compression left, or a
     // pressure acting. A particle below rest density with its pressure clamped at zero (the free
     // surface, a splash) has a residual no pressure can or should remove; counted, it hid every
@@ -446,6 +453,12 @@ private:
   int solve(std::vector<Real>& p, double dt, bool density_solve, double tol, int min_it, double& error, bool& converged)
   {
     const int max_it = scene_.solver.max_iterations;
+    const double rho = scene_.solver.chebyshev_rho;
+    if (rho > 0)
+      p_before_.resize(p.size());
+    else
+      p_before_.clear();  // sweep() keeps p^(k-1) only when the array is there
+    double weight = 1.0;  // Eq. A8a's omega_k: 1 = the plain sweep (A8)
     int it = 0;
     error = 0.0;
     converged = false;
@@ -453,7 +466,12 @@ private:
     {
       method_.extrapolate(p, density_solve);
       computePressureAcceleration(p);
-      error = jacobiUpdate(p, dt, density_solve);
+      if (rho > 0)  // Eq. A8a: the weights of Chebyshev's semi-iteration for the radius rho
+      {
+        const int delay = scene_.solver.chebyshev_delay;
+        weight = it < delay ? 1.0 : it == delay ? 2.0 / (2.0 - rho * rho) : 4.0 / (4.0 - rho * rho * weight);
+      }
+      error = jacobiUpdate(p, dt, density_solve, Real(weight));
       ++it;
       if (it >= min_it && error <= tol)
       {
@@ -524,6 +542,7 @@ private:
   Vec4Array x4_, v4_, a4_;
   std::vector<Vec3> wall_dv_;     // m/s, this step's velocity change from the p_b wall term
   std::vector<Vec3> still_wall_;  // m/s, zeros (diagnostic: walls still in Eq. A2)
+  std::vector<Real> p_before_;    // Pa, p^(k-1) of Eq. A8a: each sweep's pressures before it (Chebyshev only)
 };
 }  // namespace
 

@@ -356,6 +356,11 @@ void validate(const SceneConfig& s)
     throw ConfigError("solver.min_divergence_iterations", "must be in [0, solver.max_iterations]");
   if (!(sv.omega > 0.0 && sv.omega <= 1.0))
     throw ConfigError("solver.omega", "must be in (0, 1], got " + str(sv.omega));
+  if (!(sv.chebyshev_rho >= 0.0 && sv.chebyshev_rho < 1.0))
+    throw ConfigError("solver.chebyshev_rho", "must be in [0, 1) (0 = off), got " + str(sv.chebyshev_rho));
+  if (sv.chebyshev_delay < 1 || sv.chebyshev_delay > kMaxSolverIterations)
+    throw ConfigError("solver.chebyshev_delay", "must be in [1, " + std::to_string(kMaxSolverIterations) + "], got " +
+                                                    std::to_string(sv.chebyshev_delay));
   if (!(sv.mls_fit_radius >= 1.0 && sv.mls_fit_radius <= 4.0))
     throw ConfigError("solver.mls_fit_radius", "must be in [1, 4] spacings, got " + str(sv.mls_fit_radius));
   if (!(sv.mls_eigen_tolerance > 0.0 && sv.mls_eigen_tolerance < 1.0))

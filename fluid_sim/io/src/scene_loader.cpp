@@ -122,6 +122,8 @@ SolverConfig readSolver(const Entry& e)
   if (auto m = r.get("warm_start_guess"))
     s.warm_start_guess = readNamed(*m, {WarmStartGuess::Previous, WarmStartGuess::Damped});
   r.read("omega", s.omega);
+  r.read("chebyshev_rho", s.chebyshev_rho);
+  r.read("chebyshev_delay", s.chebyshev_delay);
   r.read("clamp_boundary_pressure", s.clamp_boundary_pressure);
   r.read("limit_boundary_pressure", s.limit_boundary_pressure);
   r.read("diagonal_feedback", s.diagonal_feedback);

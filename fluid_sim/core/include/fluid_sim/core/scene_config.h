@@ -250,6 +250,12 @@ struct SolverConfig
   ColdStart cold_start = ColdStart::Zero;  // without warm_start  key: solver.cold_start: zero | jacobi
   WarmStartGuess warm_start_guess = WarmStartGuess::Previous;  // key: solver.warm_start_guess
   double omega = 0.5;                                          // relaxed Jacobi factor            key: solver.omega
+  // Chebyshev semi-iteration over the relaxed Jacobi sweeps (Eq. A8a): rho, the assumed spectral
+  // radius of one sweep (A8), in (0, 1); 0 = off, plain sweeps (the paper's). After `delay` plain
+  // sweeps each update is extrapolated from the one before the last; it pays where many sweeps
+  // are needed (deep water, cold starts, fine spacings).
+  double chebyshev_rho = 0.0;           //                                  key: solver.chebyshev_rho
+  int chebyshev_delay = 3;              // plain sweeps first, >= 1        key: solver.chebyshev_delay
   bool clamp_boundary_pressure = true;  // p_b >= 0 in the density solve key: solver.clamp_boundary_pressure
   // Limit each extrapolated p_b (sph, mls) to the range of its fluid neighbours' pressures,
   // widened by rho0 |g - a_b| times the fit radius (Eq. A11: the largest hydrostatic difference
