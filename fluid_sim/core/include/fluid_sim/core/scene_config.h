@@ -253,7 +253,8 @@ struct SolverConfig
   // Chebyshev semi-iteration over the relaxed Jacobi sweeps (Eq. A8a): rho, the assumed spectral
   // radius of one sweep (A8), in (0, 1); 0 = off, plain sweeps (the paper's). After `delay` plain
   // sweeps each update is extrapolated from the one before the last; it pays where many sweeps
-  // are needed (deep water, cold starts, fine spacings).
+  // are needed in shallow water (cold starts, fine spacings: robot tanks); in 1 m deep columns it
+  // blew up with sph and mls (docs/performance.md).
   double chebyshev_rho = 0.0;           //                                  key: solver.chebyshev_rho
   int chebyshev_delay = 3;              // plain sweeps first, >= 1        key: solver.chebyshev_delay
   bool clamp_boundary_pressure = true;  // p_b >= 0 in the density solve key: solver.clamp_boundary_pressure
