@@ -123,10 +123,10 @@ double BodySet::maxSpeedAhead(double time, double horizon) const
   for (const Body& body : bodies_)
   {
     // Scripted bodies only. A free body's velocity comes out of its contacts, a posed one's from
-    // differences of its poses: both counted, the demo's floating box (added to bench_robot's scene), knocked by
-    // the paddle read 3-9 m/s for single steps (the water 0.35 m/s), its step fell to 0.9 ms and
-    // the contacts over the shorter step gave larger velocities again; the tf-driven demo went
-    // unstable in 2 of 10 runs of 25-40 s with them counted (none in 6 since).
+    // differences of its poses. Counted, the demo's floating box (added to bench_robot's scene)
+    // knocked by the paddle read 3-9 m/s for single steps (the water 0.35 m/s), its step fell to
+    // 0.9 ms and the contacts over the shorter step gave larger velocities again; the tf-driven
+    // demo went unstable in 2 of 10 runs of 25-40 s with them counted (none in 6 since).
     if (!body.moving || body.free || body.config.externally_posed) continue;
     // Scripted (Eq. A17): a particle's velocity is r (u + w x (x - about - u s)), and x - about - u s
     // is its initial offset from the axis point, rotated about the axis: its distance from the
