@@ -201,10 +201,24 @@ private:
     });
   }
 
+  /// Eq. A4d: next to a wall whose pressure is extrapolated, |A_i| is taken no smaller than this
+  /// fraction of a full neighbourhood's. Where the wall gradients cancel and few fluid neighbours
+  /// are left (a particle between two walls) A_i is small, a Jacobi step p_i += omega r_i / A_i
+  /// long, and the neighbours' equations lean on p_i through the walls' fits more than its own
+  /// does: Jacobi diverged there (the squeeze of Eq. A4c, 0.02 s later, at A_i = 7 % with a
+  /// positive ratio; floors of 0.05 to 0.3 all held). The floor only shortens such steps; the
+  /// solution the sweeps converge to does not depend on the diagonal.
+  static constexpr double kWallDiagonalFloor = 0.1;
+
   /// Eq. A4b: p_b = sum_f c_bf p_f depends on p_i through c_bi, so the wall term of a_i changes
   /// by -F_i p_i/rho0^2 with F_i = sum_b psi_b c_bi grad W_ib, and D_i (Eq. A7) by
   /// -(F_i . gsum_i)/rho0^2 per Pa: the diagonal with the feedback is A_i - F_i . gsum_i/rho0^2.
-  /// Measured always (the ratio of the two diagonals goes to the step report). With
+  /// Measured always (the ratio of the two diagonals goes to the step report). Where the ratio is
+  /// not positive (Eq. A4c) p_i, with the walls' answer to it, no longer removes i's compression:
+  /// a Jacobi step along A_i would grow p_i without bound (the particle squeezed between a free
+  /// body and a tank wall in the 1.1 cm robot scene: A_i 0.9 % of a full neighbourhood's, ratio
+  /// -2.4, 3e8 Pa after 60 sweeps and the water blown up in that step), and the clamped local
+  /// problem's answer is p_i = 0, so the particle is held at zero as a lone one is. With
   /// solver.diagonal_feedback the diagonal becomes min(A_i, A_i - F_i . gsum_i/rho0^2): the
   /// feedback only ever shortens a Jacobi step (where c_bi > 0 makes the true diagonal larger);
   /// where it would lengthen one (c_bi < 0, ratio < 1; measured down to -2.8 in the cylinder dam
@@ -215,6 +229,7 @@ private:
     const std::size_t n = fluid_.size();
     const bool use = scene_.solver.diagonal_feedback;
     const Real inv_rho0_sq = Real(1) / (rho0_ * rho0_);
+    const Real floor = Real(kWallDiagonalFloor * reference_diagonal_);  // 1/m^2, Eq. A4d
     // The ratios' extremes as a reduction (min and max are exact in any order): no array.
     struct Range
     {
@@ -233,6 +248,10 @@ private:
             acc.min = std::min(acc.min, ratio);
             acc.max = std::max(acc.max, ratio);
             if (use) diagonal_[i] = std::min(diagonal_[i], with);
+            if (!(ratio > 0.0))
+              diagonal_[i] = 0;  // Eq. A4c: no pressure (sweep() skips it)
+            else if (-diagonal_[i] < floor)
+              diagonal_[i] = -floor;  // Eq. A4d: a step no longer than a tenth-full neighbourhood's
           }
         },
         [](Range& left, const Range& right) {
@@ -345,7 +364,8 @@ private:
       step = damped ? Real(1) : Real(0);
     }
     parallelFor(p.size(), [&](std::size_t i) {
-      const bool seeded = source_[i] < 0 && fluid_.rho[i] >= rho0_;
+      // A particle held at zero (a lone one, Eq. A4c) keeps no pressure from the last step either.
+      const bool seeded = source_[i] < 0 && fluid_.rho[i] >= rho0_ && diagonal_[i] != 0;
       const Real jacobi = (step != 0 && diagonal_[i] != 0) ? source_[i] / diagonal_[i] : Real(0);
       p[i] = seeded ? keep * p[i] + step * jacobi : Real(0);
     });
