@@ -519,6 +519,108 @@ emitters:
   }
 }
 
+TEST(LinkPoses, ANodeFarBehindPosesItsLinksFromItsOwnRecordOfTf)
+{
+  // A simulation that falls behind ROS time by more than tf keeps (60 s) would find its links'
+  // past poses gone (before: posed 30 s back at most, drawn along with ROS time, so the water
+  // saw them move faster than they do and blew up). The node records the links' poses itself
+  // while it is behind (pose_history) and poses them from that record.
+  ros::Time::init();
+  const SceneConfig scene = io::parseScene(R"yaml(
+spacing: 0.05
+domain: {min: [-1, -1, -1], max: [1, 1, 1]}
+fluid:
+  - box: {min: [0.5, 0.5, 0.5], max: [0.7, 0.7, 0.7]}
+boundaries:
+  - name: pusher
+    box: {min: [-0.05, -0.05, -0.05], max: [0.05, 0.05, 0.05]}
+    external: true
+)yaml",
+                                           "scene.yaml");
+  // The link's motion: x and the turn about z, smooth, published on tf at 20 Hz from t0.
+  const double t0 = 1000.0;
+  auto xAt = [&](double t) { return 0.1 + 0.05 * std::sin(t - t0); };
+  auto angleAt = [&](double t) { return 0.5 * std::sin(0.7 * (t - t0)); };
+  auto run = [&](double lag, double until, LinkPoses& links, Simulation& sim) {
+    int sent = 0;
+    auto publishUpTo = [&](double t) {
+      for (; t0 + 0.05 * sent <= t + 1e-9; ++sent)
+      {
+        const double ts = t0 + 0.05 * sent;
+        geometry_msgs::TransformStamped m;
+        m.header.frame_id = "world";
+        m.header.stamp = ros::Time(ts);
+        m.child_frame_id = "pusher";
+        m.transform.translation.x = xAt(ts);
+        const Eigen::Quaterniond q(Eigen::AngleAxisd(angleAt(ts), Vec3d::UnitZ()));
+        m.transform.rotation.w = q.w();
+        m.transform.rotation.z = q.z();
+        ASSERT_TRUE(links.buffer().setTransform(m, "test"));
+      }
+    };
+    publishUpTo(t0);
+    links.attach(sim, {"pusher"}, {{"pusher", Pose()}});
+    // ROS time runs from t0 to `until`; the simulation's instant trails it by `lag` (it falls
+    // behind from the start: needed = now - lag), as the solver loop asks before each step.
+    for (double now = t0; now <= until + 1e-9; now += 0.02)
+    {
+      publishUpTo(now);
+      const double needed = std::max(t0, now - lag);
+      links.keepHistory(ros::Time(needed), ros::Time(now));
+    }
+  };
+
+  NodeOptions opt;  // pose_history 600 s
+  LinkPoses links(opt);
+  Simulation sim(scene);
+  // 100 s behind at ROS time t0 + 200 s: tf holds the last 60 s, t0 + 140 .. 200.
+  run(100.0, t0 + 200.0, links, sim);
+  const ros::Time wanted(t0 + 100.0);
+  std::string why;
+  EXPECT_FALSE(links.lookup("pusher", wanted, &why)) << "tf should have dropped that instant";
+  ASSERT_TRUE(links.historyCovers(wanted));
+  // The record starts just before what the simulation needs and runs up to tf's newest instant.
+  EXPECT_LE(links.historyBegin(), wanted);
+  EXPECT_GT(links.historyBegin(), wanted - ros::Duration(0.0101));
+  EXPECT_NEAR(links.historyEnd().toSec(), t0 + 200.0, 0.0101);
+  const std::size_t idx = sim.bodyIndex("pusher");
+  for (double t : {100.0, 100.013, 100.5, 137.77, 150.0})
+  {
+    links.poseBodies(sim, ros::Time(t0 + t), true);
+    sim.step();  // the pose is the step's
+    const Pose pose = sim.body(idx).pose;
+    // tf interpolates its 20 Hz samples linearly, the record those at 100 Hz: both within
+    // 0.05^2/8 of the smooth motion (its second derivative is at most 0.05 m/s^2, 0.35 rad/s^2).
+    EXPECT_NEAR(pose.translation.x(), xAt(t0 + t), 2e-5) << "at t0 + " << t;
+    EXPECT_NEAR(Eigen::AngleAxisd(pose.rotation).angle() * Eigen::AngleAxisd(pose.rotation).axis().z(), angleAt(t0 + t),
+                2e-4)
+        << "at t0 + " << t;
+  }
+
+  // Caught up to within 5 s of ROS time: tf holds it all again and the record is dropped.
+  links.keepHistory(ros::Time(t0 + 196.0), ros::Time(t0 + 200.0));
+  EXPECT_FALSE(links.historyCovers(ros::Time(t0 + 198.0)));
+  EXPECT_TRUE(links.historyBegin().isZero());
+
+  // Kept for at most pose_history: 100 s behind with a 50 s record, the oldest kept instant is
+  // 50 s back (where the solver loop then poses the links, drawn along with ROS time).
+  NodeOptions short_opt;
+  short_opt.pose_history = 50.0;
+  LinkPoses short_links(short_opt);
+  Simulation short_sim(scene);
+  run(100.0, t0 + 200.0, short_links, short_sim);
+  EXPECT_FALSE(short_links.historyCovers(wanted));
+  EXPECT_NEAR(short_links.historyBegin().toSec(), t0 + 150.0, 0.0201);
+
+  // pose_history 0: no record (tf's 60 s only).
+  NodeOptions no_opt;
+  no_opt.pose_history = 0.0;
+  LinkPoses no_links(no_opt);
+  Simulation no_sim(scene);
+  run(100.0, t0 + 200.0, no_links, no_sim);
+  EXPECT_TRUE(no_links.historyBegin().isZero());
+}
+
 TEST(NodeParameters, SceneFileYamlBecomesParametersAsRosparamMakesThem)
 {
   XmlRpc::XmlRpcValue v = yamlToParameters(R"yaml(

@@ -682,6 +682,96 @@ TEST(Pusher, MovingALinkThroughTfMovesItsParticlesAndItsWrench)
               above, sum / n, buoyancy, n, (ros::WallTime::now() - wall_start).toSec());
 }
 
+// ------------------------------------------------------------------------------ lag.test
+// A node far behind ROS time, further than tf keeps poses (60 s), still poses its links where
+// they were at its simulated instants: it records their poses from tf itself while behind
+// (parameter pose_history). Before, it posed them at most 30 s back, drawn along with ROS time,
+// so the water saw them move faster than they did (the 19 k demo blew up 1.6 s after it fell
+// 30 s behind). ROS time is simulated: this test runs the clock 120 s ahead of the node within
+// a few seconds of wall time, the pusher swinging above the water on tf.
+
+TEST(Lag, ANodeFarBehindRosTimePosesItsLinksWhereTheyWereThen)
+{
+  tf2_ros::TransformBroadcaster tf;
+  ros::NodeHandle nh;
+  ros::Publisher clock_pub = nh.advertise<rosgraph_msgs::Clock>("/clock", 10);
+  std::mutex m;
+  std::vector<std::pair<double, double>> frames;  // (stamp, mean x of the pusher's particles)
+  auto bsub = nh.subscribe<sensor_msgs::PointCloud2>(
+      "/fluid_sim/boundary_particles", 100, [&](const sensor_msgs::PointCloud2::ConstPtr& c) {
+        double sum = 0;
+        int n = 0;
+        for (std::size_t i = 0; i < c->width; ++i)
+          if (field(*c, i, "body") == 1.0f)  // body 0: the scene's tank; body 1: the pusher link
+          {
+            sum += field(*c, i, "x");
+            ++n;
+          }
+        std::lock_guard<std::mutex> lock(m);
+        if (n) frames.emplace_back(c->header.stamp.toSec(), sum / n);
+      });
+  // The pusher above the water (its bottom 0.26 m up, the water 0.15 m deep), still at x = 0.2 m
+  // until `swing_from`, then swinging in x by 5 cm with a 4 s period.
+  double swing_from = 1e9;
+  auto xAt = [&](double t) {
+    return t < swing_from ? 0.2 : 0.2 + 0.05 * std::sin(2.0 * M_PI * (t - swing_from) / 4.0);
+  };
+  double now = 1000.0;
+  auto tick = [&](double dt) {
+    now += dt;
+    tf.sendTransform(transform("pusher", xAt(now), 0.1, 0.3, ros::Time(now)));
+    rosgraph_msgs::Clock c;
+    c.clock = ros::Time(now);
+    clock_pub.publish(c);
+  };
+  const ros::WallTime wall_start = ros::WallTime::now();
+  auto wallLeft = [&]() { return (ros::WallTime::now() - wall_start).toSec() < waitSeconds(200.0); };
+  // 1. The clock at wall speed until the node publishes (it waits for /clock and tf, then builds).
+  while (ros::ok() && wallLeft())
+  {
+    tick(0.005);
+    ros::WallDuration(0.005).sleep();
+    std::lock_guard<std::mutex> lock(m);
+    if (frames.size() >= 3) break;
+  }
+  ASSERT_TRUE(wallLeft()) << "the node did not start";
+  // 2. The swing starts, and the clock runs 120 s on within a few seconds of wall time (20 ms
+  //    ticks, 1 ms of wall time apart): the node falls about 115 s behind.
+  swing_from = now + 0.5;
+  const double far_ahead = now + 120.0;
+  while (ros::ok() && now < far_ahead)
+  {
+    tick(0.02);
+    ros::WallDuration(0.001).sleep();
+  }
+  // 3. The clock at wall speed again, while the node works through the swing's first 15 s, all
+  //    of them more than 60 s behind ROS time.
+  const double check_until = swing_from + 15.0;
+  while (ros::ok() && wallLeft())
+  {
+    tick(0.005);
+    ros::WallDuration(0.005).sleep();
+    std::lock_guard<std::mutex> lock(m);
+    if (!frames.empty() && frames.back().first >= check_until) break;
+  }
+  ASSERT_TRUE(wallLeft()) << "the node fell too far behind this machine: newest frame at "
+                          << (frames.empty() ? 0.0 : frames.back().first - swing_from) << " s of the swing";
+  std::lock_guard<std::mutex> lock(m);
+  int checked = 0;
+  double worst = 0;
+  for (const auto& [stamp, x] : frames)
+    if (stamp >= swing_from && stamp <= check_until)
+    {
+      ++checked;
+      worst = std::max(worst, std::abs(x - xAt(stamp)));
+      EXPECT_NEAR(x, xAt(stamp), 0.003) << "the pusher at " << stamp - swing_from << " s of the swing, clock "
+                                        << now - stamp << " s ahead";
+    }
+  EXPECT_GE(checked, 100) << "boundary frames from the swing's first 15 s";
+  std::printf("lag: %d frames 100-120 s behind ROS time, pusher within %.2g m of its tf pose, %.1f s wall\n", checked,
+              worst, (ros::WallTime::now() - wall_start).toSec());
+}
+
 // ------------------------------------------------------------------------------ simtime.test
 
 TEST(SimTime, SimulatedTimeFollowsClockNotWallTime)

@@ -1,5 +1,6 @@
 #include "fluid_sim/ros/link_poses.h"
 
+#include <algorithm>
 #include <sstream>
 
 #include <ros/console.h>
@@ -96,6 +97,7 @@ void LinkPoses::attach(const Simulation& sim, const std::vector<std::string>& li
                        const std::map<std::string, Pose>& poses)
 {
   links_.clear();
+  history_.clear();  // a new build: a new time line
   for (const std::string& link : links)
   {
     LinkBody lb;
@@ -119,6 +121,7 @@ void LinkPoses::poseEmitter(Simulation& sim, EmitterFrame& ef, const Pose& frame
 void LinkPoses::attachEmitters(Simulation& sim, const std::map<std::string, Pose>& poses)
 {
   emitter_frames_.clear();
+  history_.clear();  // its samples hold one pose per frame
   const std::vector<EmitterConfig>& emitters = sim.scene().emitters;
   for (std::size_t i = 0; i < emitters.size(); ++i)
   {
@@ -217,10 +220,14 @@ std::string LinkPoses::notYetAt(const ros::Time& stamp, ros::Time* newest)
 
 void LinkPoses::poseBodies(Simulation& sim, const ros::Time& stamp, bool jump)
 {
-  for (LinkBody& lb : links_)
+  // An instant the node's own record covers is taken from it (keepHistory): tf may no longer
+  // hold it.
+  const bool recorded = !stamp.isZero() && historyCovers(stamp);
+  for (std::size_t k = 0; k < links_.size(); ++k)
   {
+    LinkBody& lb = links_[k];
     std::string why;
-    std::optional<Pose> p = lookup(lb.link, stamp, &why);
+    std::optional<Pose> p = recorded ? std::optional<Pose>(historyPose(k, stamp)) : lookup(lb.link, stamp, &why);
     if (!p && !stamp.isZero())
     {
       // tf has nothing at that instant (usually: nothing newer yet); take the newest.
@@ -241,10 +248,12 @@ void LinkPoses::poseBodies(Simulation& sim, const ros::Time& stamp, bool jump)
   }
   // Nozzles fixed in tf frames, at the same instant (a nozzle has no velocity of its own to
   // derive: the water leaves at its exit velocity).
-  for (EmitterFrame& ef : emitter_frames_)
+  for (std::size_t k = 0; k < emitter_frames_.size(); ++k)
   {
+    EmitterFrame& ef = emitter_frames_[k];
     std::string why;
-    std::optional<Pose> p = lookup(ef.frame, stamp, &why);
+    std::optional<Pose> p =
+        recorded ? std::optional<Pose>(historyPose(links_.size() + k, stamp)) : lookup(ef.frame, stamp, &why);
     if (!p && !stamp.isZero()) p = lookup(ef.frame, ros::Time(0), &why);
     if (!p)
     {
@@ -254,6 +263,99 @@ void LinkPoses::poseBodies(Simulation& sim, const ros::Time& stamp, bool jump)
     }
     poseEmitter(sim, ef, *p);
   }
+}
+
+std::vector<std::string> LinkPoses::historyFrames() const
+{
+  std::vector<std::string> frames;
+  for (const LinkBody& lb : links_) frames.push_back(lb.link);
+  for (const EmitterFrame& ef : emitter_frames_) frames.push_back(ef.frame);
+  return frames;
+}
+
+void LinkPoses::keepHistory(const ros::Time& needed, const ros::Time& now)
+{
+  if (opt_.pose_history <= 0.0 || needed.isZero() || now.isZero()) return;
+  const double lag = (now - needed).toSec();  // s of ROS time
+  if (history_.empty() ? lag < kHistoryStartLag : lag < kHistoryStopLag)
+  {
+    history_.clear();  // caught up: tf holds what the simulation needs
+    return;
+  }
+  // Drop what the simulation no longer needs: samples before `needed` but the last one before it
+  // (an interpolation's left end), and anything older than the record is to keep.
+  const ros::Time oldest_kept = now - ros::Duration(std::min(opt_.pose_history, now.toSec()));
+  while (history_.size() >= 2 && (history_[1].stamp <= needed || history_[0].stamp < oldest_kept)) history_.pop_front();
+  if (history_.size() == 1 && history_[0].stamp < oldest_kept) history_.clear();
+
+  const std::vector<std::string> frames = historyFrames();
+  if (frames.empty()) return;
+  // Up to the newest instant tf knows every frame at; none when they are all static (their
+  // poses hold at any instant, tf keeps them for good).
+  ros::Time newest;  // the oldest non-zero newest stamp
+  for (const std::string& frame : frames)
+  {
+    const std::optional<ros::Time> at = newestStamp(frame);
+    if (!at) return;  // a frame tf does not know (now): record nothing until it does
+    if (!at->isZero() && (newest.isZero() || *at < newest)) newest = *at;
+  }
+  if (newest.isZero()) return;
+  // On a grid of kHistoryInterval from the first recorded instant: from `needed` (no later than
+  // what the oldest kept sample may be) when the record is empty, else after its newest sample.
+  const ros::Duration interval(kHistoryInterval);
+  ros::Time next = history_.empty() ? std::max(needed, oldest_kept) : history_.back().stamp + interval;
+  while (next <= newest)
+  {
+    HistorySample sample;
+    sample.stamp = next;
+    for (const std::string& frame : frames)
+    {
+      std::optional<Pose> p = lookup(frame, next, nullptr);
+      if (!p)
+      {
+        // Gone from tf already (the record started, or resumed, too late for this instant) or
+        // not finite there: a gap in the record would interpolate across it, so the record
+        // restarts from the next instant tf gives every frame at.
+        history_.clear();
+        break;
+      }
+      sample.poses.push_back(*p);
+    }
+    if (sample.poses.size() == frames.size()) history_.push_back(std::move(sample));
+    next += interval;
+  }
+}
+
+bool LinkPoses::historyCovers(const ros::Time& stamp) const
+{
+  return !history_.empty() && history_.front().stamp <= stamp && stamp <= history_.back().stamp;
+}
+
+ros::Time LinkPoses::historyBegin() const
+{
+  return history_.empty() ? ros::Time() : history_.front().stamp;
+}
+
+ros::Time LinkPoses::historyEnd() const
+{
+  return history_.empty() ? ros::Time() : history_.back().stamp;
+}
+
+Pose LinkPoses::historyPose(std::size_t k, const ros::Time& stamp) const
+{
+  // The first sample after `stamp` (the record is in time order); the one before it is the left
+  // end of the interpolation.
+  auto after = std::upper_bound(history_.begin(), history_.end(), stamp,
+                                [](const ros::Time& t, const HistorySample& s) { return t < s.stamp; });
+  if (after == history_.begin()) return history_.front().poses[k];
+  if (after == history_.end()) return history_.back().poses[k];
+  const HistorySample& a = *(after - 1);
+  const HistorySample& b = *after;
+  const double u = (stamp - a.stamp).toSec() / (b.stamp - a.stamp).toSec();
+  Pose pose;
+  pose.translation = (1.0 - u) * a.poses[k].translation + u * b.poses[k].translation;
+  pose.rotation = a.poses[k].rotation.slerp(u, b.poses[k].rotation);
+  return pose;
 }
 
 }  // namespace ros_bridge

@@ -29,8 +29,8 @@ const std::set<std::string>& nodeKeys()
 {
   static const std::set<std::string> keys = {
       "scene_file", "robot_description_param", "fixed_frame", "links", "container_links", "free_links",
-      "real_time_factor", "publish_rate", "surface_rate", "max_points", "tf_delay", "tf_wait_timeout", "stop_after",
-      "threads", "publish_boundary", "wrench_window", "probe_window",
+      "real_time_factor", "publish_rate", "surface_rate", "max_points", "tf_delay", "tf_wait_timeout", "pose_history",
+      "stop_after", "threads", "publish_boundary", "wrench_window", "probe_window",
       // dynamic_reconfigure (cfg/FluidSim.cfg)
       "density_error", "divergence_error", "min_iterations", "max_iterations", "warm_start", "warm_start_guess",
       "viscosity_model", "viscosity_coefficient", "boundary_viscosity", "groups"};
@@ -72,6 +72,7 @@ void checkNodeOptions(const NodeOptions& opt, const std::string& ns)
   range("max_points", opt.max_points, 0, ranges::kMaxPoints, "(0 = all)");
   range("tf_delay", opt.tf_delay, 0.0, ranges::kMaxTfDelay, "s");
   range("tf_wait_timeout", opt.tf_wait_timeout, 0.0, ranges::kMaxTfWaitTimeout, "s (0 = wait for ever)");
+  range("pose_history", opt.pose_history, 0.0, ranges::kMaxPoseHistory, "s (0 = tf's 60 s only)");
   range("stop_after", opt.stop_after, 0.0, ranges::kMaxStopAfter, "s (0 = run until shut down)");
   range("threads", opt.threads, 0, ranges::kMaxThreads, "(0 = all cores)");
   range("wrench_window", opt.wrench_window, 0.0, ranges::kMaxWrenchWindow, "s (0 = the steps since the last message)");
@@ -417,6 +418,7 @@ NodeOptions readNodeOptions(const NodeParameters& params)
   r.read("max_points", opt.max_points);
   r.read("tf_delay", opt.tf_delay);
   r.read("tf_wait_timeout", opt.tf_wait_timeout);
+  r.read("pose_history", opt.pose_history);
   r.read("stop_after", opt.stop_after);
   r.read("threads", opt.threads);
   r.read("publish_boundary", opt.publish_boundary);

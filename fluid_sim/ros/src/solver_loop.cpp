@@ -285,7 +285,11 @@ void SolverLoop::run()
       applyCommands();
       if ((paused_ || finished) && steps_requested_ == 0)
       {
+        // The links' motion during a pause is replayed after it (see the resume below): the node's
+        // record keeps it when the pause outlasts tf's.
+        const bool record = paused_ && timeline_valid_ && !last_pose_stamp_.isZero();
         lock.unlock();
+        if (record) links_.keepHistory(last_pose_stamp_, ros::Time::now());
         publishPausedStats();
         std::unique_lock<std::mutex> relock(cmd_mutex_);
         cmd_cv_.wait_for(relock, std::chrono::milliseconds(200));
@@ -509,17 +513,25 @@ ros::Time SolverLoop::poseStamp(double t)
   // at the start), so the links replay their tf motion from where the water was placed.
   ros::Time at = rtf > 0.0 ? rosInstant(t, rtf) : anchor_ros_ + ros::Duration(t - anchor_sim_);
   const ros::Time now = ros::Time::now();
-  // Never further back than tf keeps poses (the buffer holds 60 s): a simulation that falls
-  // behind by more has its links' instant drawn along with ROS time, so that they move on
-  // continuously, faster than they do, instead of jumping to their newest pose (the demo's paddle,
-  // jumping 60 s of motion on a loaded machine, made every particle NaN).
-  if (now.toSec() > kMaxPoseLag && at < now - ros::Duration(kMaxPoseLag))
+  // Far behind ROS time the node keeps its own record of the links' poses (pose_history), which
+  // covers `at` from before tf dropped it.
+  links_.keepHistory(at, now);
+  // Never further back than the poses go: tf keeps 60 s (taken 30 s back), the node's record as far
+  // back as it reaches (at most pose_history). A simulation that falls behind by more has its links'
+  // instant drawn along with ROS time, so that they move on continuously, faster than they do,
+  // instead of jumping to their newest pose (the demo's paddle, jumping 60 s of motion on a loaded
+  // machine, made every particle NaN).
+  if (now.toSec() > kMaxPoseLag && at < now - ros::Duration(kMaxPoseLag) && !links_.historyCovers(at))
   {
+    ros::Time oldest = now - ros::Duration(kMaxPoseLag);
+    const ros::Time recorded = links_.historyBegin();
+    if (!recorded.isZero() && recorded < oldest) oldest = recorded;
     ROS_WARN_THROTTLE(10.0,
-                      "the simulation is %.1f s behind ROS time, more than %g s: the links are posed %g s back, so "
-                      "the water sees them move faster than they do",
-                      (now - at).toSec(), kMaxPoseLag, kMaxPoseLag);
-    at = now - ros::Duration(kMaxPoseLag);
+                      "the simulation is %.1f s behind ROS time, further than the links' poses are kept (parameter "
+                      "pose_history, %g s): the links are posed at the oldest kept instant, %.1f s back, so the water "
+                      "sees them move faster than they do",
+                      (now - at).toSec(), opt_.pose_history, (now - oldest).toSec());
+    at = oldest;
   }
   // Factor 0 ahead of ROS time: the links' newest poses (tf_delay back, so tf holds them).
   if (rtf == 0.0 && now.toSec() > opt_.tf_delay && at > now - ros::Duration(opt_.tf_delay))

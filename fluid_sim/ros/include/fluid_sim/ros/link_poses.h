@@ -3,6 +3,7 @@
 // the robot links as bodies of the simulation, posed from tf before each step.
 
 #include <atomic>
+#include <deque>
 #include <map>
 #include <memory>
 #include <optional>
@@ -75,6 +76,28 @@ public:
   /// velocities. A link tf does not know stays where it was (with a throttled warning).
   void poseBodies(Simulation& sim, const ros::Time& stamp, bool jump);
 
+  /// The node's own record of the links' (and emitter frames') poses, for a simulation that falls
+  /// far behind ROS time (parameter pose_history). tf keeps 60 s; a simulation that is further
+  /// behind would find its links' past poses gone. While the simulation is behind by more than
+  /// kHistoryStartLag, this records every frame's pose from `needed` (the instant the links were
+  /// last posed at, or will be next) on, every kHistoryInterval of ROS time up to the newest
+  /// instant tf knows every frame at, and poseBodies() takes poses at instants it covers from it.
+  /// Samples older than `needed` (but the one before it) and than `now` - opt.pose_history are
+  /// dropped; the record is cleared once the simulation is within kHistoryStopLag of ROS time.
+  /// Nothing is recorded with pose_history 0, or when every frame is static.
+  void keepHistory(const ros::Time& needed, const ros::Time& now);
+
+  /// True if the record holds instants on both sides of `stamp` (poseBodies() uses it there).
+  bool historyCovers(const ros::Time& stamp) const;
+
+  /// The recorded instants, oldest first (zero each when there is no record).
+  ros::Time historyBegin() const;
+  ros::Time historyEnd() const;
+
+  static constexpr double kHistoryInterval = 0.01;  // s of ROS time between recorded poses
+  static constexpr double kHistoryStartLag = 10.0;  // s: recording starts this far behind, well within tf's 60 s
+  static constexpr double kHistoryStopLag = 5.0;    // s: the record is cleared once the lag is below this
+
   /// The tf buffer (tests fill it directly).
   tf2_ros::Buffer& buffer()
   {
@@ -110,11 +133,26 @@ private:
   };
   void poseEmitter(Simulation& sim, EmitterFrame& ef, const Pose& frame_pose);
 
+  /// The frames of the record, links first, then emitter frames (the order of a sample's poses).
+  std::vector<std::string> historyFrames() const;
+
+  /// The pose of frame k of the record at `stamp` (historyCovers(stamp) holds): tf's own
+  /// interpolation between the recorded samples on either side (linear translation, slerp).
+  Pose historyPose(std::size_t k, const ros::Time& stamp) const;
+
+  /// One sample of the record: every frame's pose at one instant.
+  struct HistorySample
+  {
+    ros::Time stamp;
+    std::vector<Pose> poses;  // frame -> fixed frame (m), in historyFrames() order
+  };
+
   const NodeOptions& opt_;
   std::vector<EmitterFrame> emitter_frames_;
   tf2_ros::Buffer buffer_{ros::Duration(60.0)};
   std::unique_ptr<tf2_ros::TransformListener> listener_;
   std::vector<LinkBody> links_;
+  std::deque<HistorySample> history_;  // oldest first, kHistoryInterval apart
 };
 
 }  // namespace ros_bridge

@@ -45,6 +45,10 @@ struct NodeOptions
   bool publish_boundary = true;
   double wrench_window = 0.1;  // s of simulated time each published wrench averages
   double probe_window = 0.1;   // s of simulated time each published probe reading averages
+  // s of ROS time the node keeps its own record of the links' poses for, when the simulation falls
+  // behind by more than tf keeps (LinkPoses::keepHistory); 0 = tf's 60 s only (links posed at most
+  // 30 s back)
+  double pose_history = 600.0;
 };
 
 /// The checked ranges of the node's numeric parameters (README "The ROS node"). Values outside
@@ -60,6 +64,7 @@ constexpr double kMaxSurfaceRate = 100.0;  // Hz (besides 0: off); a mesh takes 
 constexpr int kMaxPoints = 100000000;
 constexpr double kMaxTfDelay = 30.0;           // s
 constexpr double kMaxTfWaitTimeout = 86400.0;  // s
+constexpr double kMaxPoseHistory = 86400.0;    // s; 56 B per frame every 10 ms: 480 MB per frame for a day
 constexpr double kMaxStopAfter = 1.0e6;        // s of simulated time
 constexpr int kMaxThreads = 1024;
 constexpr double kMaxWrenchWindow = 10.0;  // s of simulated time
