@@ -1,6 +1,6 @@
 // A floating box squeezed towards a tank wall by the paddle robot (test/fixtures/squeeze): the
 // MLS density solve's guards for a particle between two walls (docs/method.md, Eqs. A4c, A4d).
-// Without them the solve diverged in the first step (A4c) or 0.02 s later (A4d).
+// Without either guard the solve diverged in the first step; with A4c alone, 0.02 s later.
 
 #include <gtest/gtest.h>
 
