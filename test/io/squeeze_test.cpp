@@ -49,8 +49,9 @@ TEST(Squeeze, AParticleBetweenABoxAndATankWallDoesNotBlowUpTheMlsSolve)
     }
     // m/s; the paddle's tip moves at 0.4 and the box at 0.18. The squeezed water's fastest
     // particle reaches 4.3-4.9 m/s at t = 0.023 s in every run, more than the validation suite's
-    // bound for energy a wall can give (2 v_wall + sqrt(2 g H) = 2.3 m/s): a squirt from a gap
-    // narrower than a spacing that this bound does not excuse (docs/method.md, A4d).
+    // bound for energy a wall can give (2 v_wall + sqrt(2 g H) = 3.9 m/s, H the 0.5 m tank): a
+    // squirt from a gap narrower than a spacing that this bound does not excuse (docs/method.md,
+    // A4d).
     EXPECT_LT(fastest, 5.0) << "CFL " << cfl;
     // The case A4c is for: a particle whose own pressure, with the walls' answer, adds to its
     // compression (measured -2.62 in the first step).
