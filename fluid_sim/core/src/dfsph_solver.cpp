@@ -271,7 +271,6 @@ private:
     feedback_ratio_max_ = range.max;
     floored_.clear();
     for (const Index i : range.floored) floored_.push_back({i, diagonal_[i]});
-    wall_floor_ = -floor;
   }
 
   /// The boundary velocities v_b of the density rate (Eq. A2), m/s: the bodies' own, or zeros
@@ -496,8 +495,8 @@ private:
     converged = false;
     while (it < max_it)
     {
-      if (it == kWallFloorFromSweep)  // Eq. A4d
-        for (const FlooredDiagonal& f : floored_) diagonal_[f.i] = wall_floor_;
+      if (it == kWallFloorFromSweep)  // Eq. A4d: A_i is negative, the floor its fraction of A_full's
+        for (const FlooredDiagonal& f : floored_) diagonal_[f.i] = -Real(kWallDiagonalFloor * reference_diagonal_);
       method_.extrapolate(p, density_solve);
       computePressureAcceleration(p);
       if (rho > 0)  // Eq. A8a: the weights of Chebyshev's semi-iteration for the radius rho
@@ -584,7 +583,6 @@ private:
     Real diagonal;  // 1/m^2, its A_i without the floor
   };
   std::vector<FlooredDiagonal> floored_;  // the particles Eq. A4d floors from a solve's second sweep on
-  Real wall_floor_ = 0;                   // 1/m^2, the floored A_i (negative, as A_i)
 };
 }  // namespace
 
