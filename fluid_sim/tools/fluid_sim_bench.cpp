@@ -50,6 +50,7 @@ struct Row
   double ms_median = 0.0;                  // ms wall clock per step() (median)
   double divergence_iterations = 0;        // per step (mean)
   double density_iterations = 0;           // per step (mean)
+  double pressure_passes = 0;              // passes over the pairs for a^p per step (mean; StepReport)
   double ns_per_particle_iteration = 0.0;  // ns in the two solves / (fluid particles * iterations)
   double ms_neighbors = 0.0;               // ms per step in the neighbour search (mean)
   double ms_solves = 0.0;                  // ms per step in the divergence + density solves (mean)
@@ -115,7 +116,7 @@ Row runOne(const fluid_sim::SceneConfig& scene, int warmup, int steps)
   std::vector<double> wall_ms;
   wall_ms.reserve(static_cast<std::size_t>(steps));
   const double t_start = sim.time();  // s
-  double sum_div = 0.0, sum_dens = 0.0, sum_nbr = 0.0, sum_solve_ms = 0.0, sum_err = 0.0;
+  double sum_div = 0.0, sum_dens = 0.0, sum_nbr = 0.0, sum_solve_ms = 0.0, sum_err = 0.0, sum_passes = 0.0;
   double sum_div_ms = 0.0, sum_dens_ms = 0.0;
   double particle_iterations = 0.0;  // sum over steps of fluid particles * (div + density iterations)
   double pair_passes = 0.0;          // sum over steps of pairs * iterations * 2 (a^p pass + Jacobi pass)
@@ -127,6 +128,7 @@ Row runOne(const fluid_sim::SceneConfig& scene, int warmup, int steps)
     wall_ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - start).count());
     sum_div += report.divergence_iterations;
     sum_dens += report.density_iterations;
+    sum_passes += report.pressure_passes;
     sum_nbr += report.ms_neighbors;
     sum_solve_ms += report.ms_divergence + report.ms_density;
     sum_div_ms += report.ms_divergence;
@@ -157,6 +159,7 @@ Row runOne(const fluid_sim::SceneConfig& scene, int warmup, int steps)
   row.ms_median = median(wall_ms);
   row.divergence_iterations = sum_div / n;
   row.density_iterations = sum_dens / n;
+  row.pressure_passes = sum_passes / n;
   row.ms_neighbors = sum_nbr / n;
   row.ms_solves = sum_solve_ms / n;
   row.ms_divergence = sum_div_ms / n;
@@ -216,6 +219,7 @@ nlohmann::json toJson(const Row& r)
                         {"ms_per_step_median", r.ms_median},
                         {"divergence_iterations_per_step", r.divergence_iterations},
                         {"density_iterations_per_step", r.density_iterations},
+                        {"pressure_passes_per_step", r.pressure_passes},
                         {"ns_per_particle_iteration", r.ns_per_particle_iteration},
                         {"ms_neighbors_per_step", r.ms_neighbors},
                         {"ms_solves_per_step", r.ms_solves},

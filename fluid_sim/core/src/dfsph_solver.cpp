@@ -37,6 +37,7 @@ public:
 
   void computeDensityAndDiagonal() override
   {
+    pressure_passes_ = 0;  // a new step
     densityDiagonalAndRate();
     method_.prepare();
     if constexpr (Method::kExtrapolated) extrapolationFeedback();
@@ -48,10 +49,10 @@ public:
     // Eq. A5: only compression counts (the free surface is not pulled in). The density rate is
     // the one of densityDiagonalAndRate(): the velocities have not changed since.
     parallelFor(n, [&](std::size_t i) { source_[i] = -std::max(density_rate_[i], Real(0)) / Real(dt); });
-    startingPressure(fluid_.p_divergence);
+    const bool from_zero = startingPressure(fluid_.p_divergence);
     rep.divergence_iterations =
         solve(fluid_.p_divergence, dt, false, scene_.solver.divergence_error, scene_.solver.min_divergence_iterations,
-              rep.divergence_error, rep.divergence_converged);
+              from_zero, rep.divergence_error, rep.divergence_converged);
     parallelFor(n, [&](std::size_t i) { fluid_.v[i] += Real(dt) * a4_[i].template head<3>(); });  // v*
     accumulateWrenches(fluid_.p_divergence, wrenches);
   }
@@ -63,10 +64,10 @@ public:
     // Eq. A6.
     const Real inv_dt = Real(1.0 / dt), inv_dt2 = Real(1.0 / (dt * dt));
     parallelFor(n, [&](std::size_t i) { source_[i] = (rho0_ - fluid_.rho[i]) * inv_dt2 - density_rate_[i] * inv_dt; });
-    startingPressure(fluid_.p_density);
+    const bool from_zero = startingPressure(fluid_.p_density);
     density_residual_max_.clear();
     rep.density_iterations = solve(fluid_.p_density, dt, true, scene_.solver.density_error,
-                                   scene_.solver.min_iterations, rep.density_error, rep.density_converged);
+                                   scene_.solver.min_iterations, from_zero, rep.density_error, rep.density_converged);
     accumulateWrenches(fluid_.p_density, wrenches);
   }
 
@@ -111,6 +112,7 @@ public:
     method_.report(rep, bodies_);
     rep.feedback_ratio_min = feedback_ratio_min_;
     rep.feedback_ratio_max = feedback_ratio_max_;
+    rep.pressure_passes = pressure_passes_;
     rep.density_residual_max = density_residual_max_;
   }
 
@@ -349,13 +351,13 @@ private:
   /// down. With the plain previous pressure the dam breaks blew up for every boundary method
   /// (docs/method_notes.md); with the Jacobi step on every particle a splash particle at 0.32 rho0
   /// got 121 kPa and the cup test's water went non-finite in the next step (seeded at or above
-  /// 0.5 rho0 still, at or above 0.9 rho0 not).
-  void startingPressure(std::vector<Real>& p)
+  /// 0.5 rho0 still, at or above 0.9 rho0 not). Returns whether the guess is zero everywhere.
+  bool startingPressure(std::vector<Real>& p)
   {
     if (!scene_.solver.warm_start && scene_.solver.cold_start == ColdStart::Zero)
     {
       std::fill(p.begin(), p.end(), Real(0));
-      return;
+      return true;
     }
     // Where A10 holds: p_i = keep p_i(previous step) + step s_i / A_i, the Jacobi step (A10a)
     // scaled by `step`; keep, step = 0, 1 cold (A10a), 1, 0 warm previous (A10), 1/2, 1 warm
@@ -380,6 +382,8 @@ private:
       const Real jacobi = (step != 0 && diagonal_[i] != 0) ? source_[i] / diagonal_[i] : Real(0);
       p[i] = seeded ? keep * p[i] + step * jacobi : Real(0);
     });
+    // A guess can be zero everywhere too (still water below rest density, the first step).
+    return parallelMax(p.size(), [&](std::size_t i) { return p[i] != Real(0) ? 1.0 : 0.0; }) == 0.0;
   }
 
   /// Eq. 1 with the method's boundary term: a^p from the pressures p into a4 (m/s^2). With
@@ -389,6 +393,7 @@ private:
   void computePressureAcceleration(const std::vector<Real>& p, Real wall_dt = 0)
   {
     const std::size_t n = fluid_.size();
+    ++pressure_passes_;
     p_over_rho2_.resize(n);
     parallelFor(n, [&](std::size_t i) { p_over_rho2_[i] = p[i] / (fluid_.rho[i] * fluid_.rho[i]); });
     a4_.resize(n);
@@ -406,6 +411,19 @@ private:
       method_.template addWallAcceleration<kRecordWall>(i, xi, ki, p[i], grad_b_[i], wall_dt, acc, wall_dv_[i]);
       a4_[i] << acc, Real(0);
     });
+  }
+
+  /// computePressureAcceleration() for p = 0 everywhere where the method's p_b is then zero too
+  /// (vanishesAtZero): every term of Eq. 1 is zero, so a^p = 0 without the pass over the pairs.
+  /// From zero, the cold start's default, that pass is one of the three of a divergence solve's
+  /// single iteration and one of five of a density solve's two. a4_ and p_over_rho2_ are written
+  /// as the pass would (XSPH left its own values in them, forceScratch()).
+  void zeroPressureAcceleration()
+  {
+    const std::size_t n = fluid_.size();
+    p_over_rho2_.assign(n, Real(0));
+    a4_.resize(n);
+    parallelFor(n, [&](std::size_t i) { a4_[i].setZero(); });
   }
 
   /// What a Jacobi sweep sums over the particles: the stopping error's terms (Eq. A9, relative)
@@ -480,8 +498,10 @@ private:
   }
 
   /// Iterates a solve; on return a4 holds the final pressure acceleration, with p_b recomputed
-  /// from the final p. Returns the iterations; writes error and convergence.
-  int solve(std::vector<Real>& p, double dt, bool density_solve, double tol, int min_it, double& error, bool& converged)
+  /// from the final p. `from_zero`: the guess p is zero everywhere. Returns the iterations; writes
+  /// error and convergence.
+  int solve(std::vector<Real>& p, double dt, bool density_solve, double tol, int min_it, bool from_zero, double& error,
+            bool& converged)
   {
     const int max_it = scene_.solver.max_iterations;
     const double rho = scene_.solver.chebyshev_rho;
@@ -498,7 +518,10 @@ private:
       if (it == kWallFloorFromSweep)  // Eq. A4d: A_i is negative, the floor its fraction of A_full's
         for (const FlooredDiagonal& f : floored_) diagonal_[f.i] = -Real(kWallDiagonalFloor * reference_diagonal_);
       method_.extrapolate(p, density_solve);
-      computePressureAcceleration(p);
+      if (it == 0 && from_zero && method_.vanishesAtZero(density_solve))
+        zeroPressureAcceleration();
+      else
+        computePressureAcceleration(p);
       if (rho > 0)  // Eq. A8a: the weights of Chebyshev's semi-iteration for the radius rho
       {
         const int delay = scene_.solver.chebyshev_delay;
@@ -569,6 +592,7 @@ private:
   std::vector<Real> source_;        // kg/m^3/s^2, s_i of Eq. A5 or A6
   std::vector<Real> p_over_rho2_;   // p_i/rho_i^2 of the last a^p evaluation, m^5/(kg s^2)
   std::vector<Vec3> grad_b_;        // kg/m^4, sum_b psi_b grad W_ib
+  int pressure_passes_ = 0;         // computePressureAcceleration() passes this step (StepReport)
   double feedback_ratio_min_ = 1.0, feedback_ratio_max_ = 1.0;  // A_i with Eq. A4b over A_i without
   std::vector<float> density_residual_max_;  // per density-solve iteration, the largest |s_i - D_i| dt^2/rho0
   // m, m/s, m/s^2: x, v and a^p padded to 4 components. Before the divergence solve a4_ holds

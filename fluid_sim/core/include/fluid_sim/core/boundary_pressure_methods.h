@@ -15,6 +15,8 @@
 //     Vec3 feedbackVector(i, x_i)        sum_b psi_b c_bi grad W_ib (kg/m^4), for Eq. A4b
 //   void extrapolate(p, density_solve)   p_b from the fluid pressures p, before each evaluation
 //                                        of the pressure acceleration (both solves)
+//   bool vanishesAtZero(density_solve)   whether p = 0 everywhere gives p_b = 0 everywhere, so that
+//                                        the wall term, and with it a^p (Eq. 1), is zero
 //   addWallAcceleration<kRecord>(...)    the boundary term of Eq. 1 for one fluid particle
 //   Real wallPressure(b, p_i)            the p_b that fluid particle i sees at b (forces, Eq. A12)
 //   Real contactPressure(b, p_i)         the pressure the wall bears there (contact statistics)
@@ -82,6 +84,12 @@ public:
   }
 
   void extrapolate(const std::vector<Real>&, bool) {}
+
+  /// p_b = 0 (Eq. A19) or p_b = p_i (Eq. 2): zero with the fluid's pressures.
+  static constexpr bool vanishesAtZero(bool)
+  {
+    return true;
+  }
 
   /// Eq. A19 (p_b = 0, single term) or Eq. 2 (p_b = p_i): (p_i/rho_i^2 [+ p_i/rho0^2]) grad_b,
   /// with grad_b = sum_b psi_b grad W_ib (kg/m^4) and p_over_rho2 = p_i/rho_i^2. With kRecord
@@ -245,6 +253,11 @@ public:
   {
     ExtrapolatedBoundaryPressure::extrapolate(p, density_solve, density_solve);
   }
+  /// The density solve's p_b carries the hydrostatic constant_b, non-zero at p = 0.
+  static constexpr bool vanishesAtZero(bool density_solve)
+  {
+    return !density_solve;
+  }
   void report(StepReport& rep, const BodySet&) const
   {
     rep.active_boundary = active_.size();
@@ -262,6 +275,11 @@ public:
   void extrapolate(const std::vector<Real>& p, bool density_solve)
   {
     ExtrapolatedBoundaryPressure::extrapolate(p, density_solve, false);
+  }
+  /// Eq. 15 without a constant: sum_f c_bf p_f, zero at p = 0 (the limit, Eq. A11, keeps it there).
+  static constexpr bool vanishesAtZero(bool)
+  {
+    return true;
   }
   void report(StepReport& rep, const BodySet&) const
   {

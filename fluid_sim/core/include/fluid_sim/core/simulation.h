@@ -58,6 +58,11 @@ struct StepReport
   // Eq. A9, is density_error. A Jacobi iteration that diverges somewhere shows here first.
   std::vector<float> density_residual_max;
   std::size_t neighbor_pairs = 0;  // fluid-fluid + fluid-boundary pairs in this step's lists
+  // Evaluations of the pressure acceleration (Eq. 1, a pass over the pairs each) in both solves:
+  // iterations + 1 per solve (each iteration's, and the final one), one fewer for a solve that
+  // starts from zero where the wall term vanishes with p (the first a^p is then zero). Each
+  // iteration also makes one Jacobi sweep over the pairs (Eq. A7).
+  int pressure_passes = 0;
   bool unstable = false;
   std::string reason;  // why unstable
   // Wall-clock split of the step, ms.
