@@ -414,10 +414,13 @@ private:
   }
 
   /// computePressureAcceleration() for p = 0 everywhere where the method's p_b is then zero too
-  /// (vanishesAtZero): every term of Eq. 1 is zero, so a^p = 0 without the pass over the pairs.
-  /// From zero, the cold start's default, that pass is one of the three of a divergence solve's
-  /// single iteration and one of five of a density solve's two. a4_ and p_over_rho2_ are written
-  /// as the pass would (XSPH left its own values in them, forceScratch()).
+  /// (vanishesAtZero): every term of Eq. 1 is zero, so a^p = 0 without the pass over the pairs,
+  /// and the sweep after it needs none either (D_i = 0, Eq. A7): from zero, the cold start's
+  /// default, the first iteration is the O(n) update p_i = omega s_i / A_i (Eq. A8 with D_i = 0;
+  /// clamped at zero in the density solve), and a divergence
+  /// solve's single iteration makes one pass over the pairs instead of three, a density solve's
+  /// two iterations three instead of five. a4_ and p_over_rho2_ are written with the zeros the
+  /// pass would give (XSPH left its own values in them, forceScratch()).
   void zeroPressureAcceleration()
   {
     const std::size_t n = fluid_.size();
@@ -435,8 +438,9 @@ private:
 
   /// One relaxed Jacobi sweep: D_i (Eq. A7), p_i += omega (s_i - D_i)/A_i (Eq. A8), extrapolated
   /// with the Chebyshev weight (Eq. A8a; 1 = none). Returns the stopping error (Eq. A9) of the
-  /// pressures before this update.
-  double jacobiUpdate(std::vector<Real>& p, double dt, bool clamp_p, Real weight)
+  /// pressures before this update. `zero_acceleration`: a^p is zero everywhere
+  /// (zeroPressureAcceleration()), so every D_i is zero and the sweep needs no pass over the pairs.
+  double jacobiUpdate(std::vector<Real>& p, double dt, bool clamp_p, Real weight, bool zero_acceleration)
   {
     const std::size_t n = fluid_.size();
     const Real omega = Real(scene_.solver.omega);
@@ -451,8 +455,12 @@ private:
     const SweepFigures figures = parallelDeterministicSum(
         n, SweepFigures{},
         [&](const tbb::blocked_range<std::size_t>& range, SweepFigures& acc) {
-          for (std::size_t i = range.begin(); i != range.end(); ++i)
-            sweep(i, p, clamp_p, omega, weight, dt2_over_rho0, guessed, acc);
+          if (zero_acceleration)
+            for (std::size_t i = range.begin(); i != range.end(); ++i)
+              sweep<true>(i, p, clamp_p, omega, weight, dt2_over_rho0, guessed, acc);
+          else
+            for (std::size_t i = range.begin(); i != range.end(); ++i)
+              sweep<false>(i, p, clamp_p, omega, weight, dt2_over_rho0, guessed, acc);
         },
         [](SweepFigures& left, const SweepFigures& right) {
           left.error += right.error;
@@ -464,12 +472,17 @@ private:
   }
 
   /// Particle i's part of jacobiUpdate(): D_i, the pressure update, and its error and residual
-  /// figures added to `acc`.
+  /// figures added to `acc`. kZeroAcceleration: a^p = 0 everywhere, D_i = 0 without the pairs.
+  template <bool kZeroAcceleration>
   void sweep(std::size_t i, std::vector<Real>& p, bool clamp_p, Real omega, Real weight, Real dt2_over_rho0,
              bool guessed, SweepFigures& acc)
   {
-    Real div = mass_ * fluidDivergence(i, a4_);
-    div += a4_[i].template head<3>().dot(grad_b_[i]);  // boundary particles are not accelerated by the fluid
+    Real div = 0;
+    if constexpr (!kZeroAcceleration)
+    {
+      div = mass_ * fluidDivergence(i, a4_);
+      div += a4_[i].template head<3>().dot(grad_b_[i]);  // boundary particles are not accelerated by the fluid
+    }
     const Real residual = div - source_[i];
     // residual > 0: compression left. A first guess can also be too high (a stale warm-start
     // pressure on a particle that no longer needs it; an unrelaxed Jacobi step that overshoots)
@@ -518,7 +531,8 @@ private:
       if (it == kWallFloorFromSweep)  // Eq. A4d: A_i is negative, the floor its fraction of A_full's
         for (const FlooredDiagonal& f : floored_) diagonal_[f.i] = -Real(kWallDiagonalFloor * reference_diagonal_);
       method_.extrapolate(p, density_solve);
-      if (it == 0 && from_zero && method_.vanishesAtZero(density_solve))
+      const bool zero_acceleration = it == 0 && from_zero && method_.vanishesAtZero(density_solve);
+      if (zero_acceleration)
         zeroPressureAcceleration();
       else
         computePressureAcceleration(p);
@@ -527,7 +541,7 @@ private:
         const int delay = scene_.solver.chebyshev_delay;
         weight = it < delay ? 1.0 : it == delay ? 2.0 / (2.0 - rho * rho) : 4.0 / (4.0 - rho * rho * weight);
       }
-      error = jacobiUpdate(p, dt, density_solve, Real(weight));
+      error = jacobiUpdate(p, dt, density_solve, Real(weight), zero_acceleration);
       ++it;
       if (it >= min_it && error <= tol)
       {
