@@ -5,6 +5,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <type_traits>
+
+#if defined(__AVX512F__)
+#include <immintrin.h>
+#endif
 
 #include "fluid_sim/core/parallel.h"
 
@@ -12,6 +17,43 @@ namespace fluid_sim
 {
 namespace
 {
+#if defined(__AVX512F__)
+/// The two solver passes four pairs at a time (float, AVX-512): each pair's padded Vec4 in one
+/// 128-bit lane of a 512-bit register, loaded in place (no gather instruction: on this project's
+/// CPU a 16-lane gather of x, y, z arrays made the passes slower, docs/performance.md). A row's
+/// pairs then add up in four lane sums, joined at the row's end, and the pairs after the last
+/// whole four one by one: another order of the same sums than the one-pair loop, whose single
+/// accumulator chained every pair's add to the last (3 cycles each) and took 12 instructions per
+/// pair. Deterministic: the order depends only on the row.
+constexpr bool kQuadPairs = std::is_same_v<Real, float>;
+
+/// Vec4s `base[j[0..3]]` as the four 128-bit lanes of one register.
+inline __m512 loadFourVec4(const Vec4* base, const Index* j)
+{
+  __m512 r = _mm512_zextps128_ps512(_mm_load_ps(base[j[0]].data()));
+  r = _mm512_insertf32x4(r, _mm_load_ps(base[j[1]].data()), 1);
+  r = _mm512_insertf32x4(r, _mm_load_ps(base[j[2]].data()), 2);
+  return _mm512_insertf32x4(r, _mm_load_ps(base[j[3]].data()), 3);
+}
+
+/// Four scalars, each repeated over its 128-bit lane.
+inline __m512 spreadFour(__m128 c)
+{
+  return _mm512_maskz_permutexvar_ps(
+      __mmask16(0xFFFF), _mm512_setr_epi32(0, 0, 0, 0, 1, 1, 1, 1, 2, 2, 2, 2, 3, 3, 3, 3), _mm512_zextps128_ps512(c));
+}
+
+/// The four lanes' sum as one Vec4, (lane 0 + lane 2) + (lane 1 + lane 3) (in-register shuffles;
+/// GCC 12's extract intrinsics warn of an uninitialised operand).
+inline __m128 sumLanes(__m512 v)
+{
+  const __m512 halves = _mm512_add_ps(v, _mm512_shuffle_f32x4(v, v, 0x4E));                          // lanes 2, 3, 0, 1
+  return _mm512_castps512_ps128(_mm512_add_ps(halves, _mm512_shuffle_f32x4(halves, halves, 0xB1)));  // 1, 0, 3, 2
+}
+#else
+constexpr bool kQuadPairs = false;
+#endif
+
 template <class Method>
 class DfsphSolver final : public PressureSolver
 {
@@ -310,7 +352,27 @@ private:
   {
     const Vec4 xi = x4_[i], fi = f[i];
     Vec4 sum = Vec4::Zero();
-    for (Index k = ff_.offset[i]; k < ff_.offset[i + 1]; ++k)
+    Index k = ff_.offset[i];
+    const Index end = ff_.offset[i + 1];
+#if defined(__AVX512F__)
+    if constexpr (kQuadPairs)
+    {
+      // Four pairs at a time (kQuadPairs): grad_factor (f_i - f_j) * (x_i - x_j) per lane.
+      const __m512 xi16 = _mm512_maskz_broadcast_f32x4(__mmask16(0xFFFF), _mm_load_ps(xi.data()));
+      const __m512 fi16 = _mm512_maskz_broadcast_f32x4(__mmask16(0xFFFF), _mm_load_ps(fi.data()));
+      __m512 acc = _mm512_setzero_ps();
+      for (; k + 4 <= end; k += 4)
+      {
+        const Index* const j = ff_.index.data() + k;
+        const __m512 dx = _mm512_sub_ps(xi16, loadFourVec4(x4_.data(), j));
+        const __m512 df = _mm512_sub_ps(fi16, loadFourVec4(f.data(), j));
+        const __m512 g = spreadFour(_mm_loadu_ps(ff_.grad_factor.data() + k));
+        acc = _mm512_fmadd_ps(g, _mm512_mul_ps(df, dx), acc);
+      }
+      _mm_store_ps(sum.data(), sumLanes(acc));
+    }
+#endif
+    for (; k < end; ++k)
     {
       const Index j = ff_.index[k];
       sum += ff_.grad_factor[k] * (fi - f[j]).cwiseProduct(xi - x4_[j]);
@@ -402,7 +464,27 @@ private:
       const Real ki = p_over_rho2_[i];  // Pa m^6/kg^2 = m^5/(kg s^2)
       const Vec4 xi4 = x4_[i];
       Vec4 acc4 = Vec4::Zero();
-      for (Index k = ff_.offset[i]; k < ff_.offset[i + 1]; ++k)
+      Index k = ff_.offset[i];
+      const Index end = ff_.offset[i + 1];
+#if defined(__AVX512F__)
+      if constexpr (kQuadPairs)
+      {
+        // Four pairs at a time (kQuadPairs): m (kappa_i + kappa_j) grad_factor (x_i - x_j) per lane.
+        const __m512 xi16 = _mm512_maskz_broadcast_f32x4(__mmask16(0xFFFF), _mm_load_ps(xi4.data()));
+        const __m128 ki4 = _mm_set1_ps(ki), m4 = _mm_set1_ps(mass_);
+        const float* const kappa = p_over_rho2_.data();
+        __m512 acc = _mm512_setzero_ps();
+        for (; k + 4 <= end; k += 4)
+        {
+          const Index* const j = ff_.index.data() + k;
+          const __m128 kj = _mm_setr_ps(kappa[j[0]], kappa[j[1]], kappa[j[2]], kappa[j[3]]);
+          const __m128 c = _mm_mul_ps(_mm_mul_ps(m4, _mm_add_ps(ki4, kj)), _mm_loadu_ps(ff_.grad_factor.data() + k));
+          acc = _mm512_fmadd_ps(spreadFour(c), _mm512_sub_ps(xi16, loadFourVec4(x4_.data(), j)), acc);
+        }
+        _mm_store_ps(acc4.data(), _mm_sub_ps(_mm_setzero_ps(), sumLanes(acc)));
+      }
+#endif
+      for (; k < end; ++k)
       {
         const Index j = ff_.index[k];
         acc4 -= (mass_ * (ki + p_over_rho2_[j]) * ff_.grad_factor[k]) * (xi4 - x4_[j]);
