@@ -5,9 +5,10 @@
 
 #include <algorithm>
 #include <cmath>
-#include <type_traits>
 
-#if defined(__AVX512F__)
+// The solver passes four pairs at a time with AVX-512 in float (FLUID_SIM_QUAD_PAIRS below).
+#if defined(__AVX512F__) && !defined(FLUID_SIM_USE_DOUBLE)
+#define FLUID_SIM_QUAD_PAIRS 1
 #include <immintrin.h>
 #endif
 
@@ -17,23 +18,24 @@ namespace fluid_sim
 {
 namespace
 {
-#if defined(__AVX512F__)
-/// The two solver passes four pairs at a time (float, AVX-512): each pair's padded Vec4 in one
-/// 128-bit lane of a 512-bit register, loaded in place (no gather instruction: on this project's
-/// CPU a 16-lane gather of x, y, z arrays made the passes slower, docs/performance.md). A row's
-/// pairs then add up in four lane sums, joined at the row's end, and the pairs after the last
-/// whole four one by one: another order of the same sums than the one-pair loop, whose single
-/// accumulator chained every pair's add to the last (3 cycles each) and took 12 instructions per
-/// pair. Deterministic: the order depends only on the row.
-constexpr bool kQuadPairs = std::is_same_v<Real, float>;
+#ifdef FLUID_SIM_QUAD_PAIRS
+// The two solver passes four pairs at a time (float, AVX-512): each pair's padded Vec4 in one
+// 128-bit lane of a 512-bit register, loaded in place (no gather instruction: on this project's
+// CPU a 16-lane gather of x, y, z arrays made the passes slower, docs/performance.md). A row's
+// pairs then add up in four lane sums, joined at the row's end, and the pairs after the last
+// whole four one by one: another order of the same sums than the one-pair loop, whose single
+// accumulator chained every pair's add to the last (3 cycles each) and took 12 instructions per
+// pair. Deterministic: the order depends only on the row. (The masked forms of the intrinsics,
+// all lanes set: GCC 12's unmasked ones warn of an uninitialised operand.)
 
 /// Vec4s `base[j[0..3]]` as the four 128-bit lanes of one register.
 inline __m512 loadFourVec4(const Vec4* base, const Index* j)
 {
   __m512 r = _mm512_zextps128_ps512(_mm_load_ps(base[j[0]].data()));
-  r = _mm512_insertf32x4(r, _mm_load_ps(base[j[1]].data()), 1);
-  r = _mm512_insertf32x4(r, _mm_load_ps(base[j[2]].data()), 2);
-  return _mm512_insertf32x4(r, _mm_load_ps(base[j[3]].data()), 3);
+  const __mmask16 all = 0xFFFF;
+  r = _mm512_maskz_insertf32x4(all, r, _mm_load_ps(base[j[1]].data()), 1);
+  r = _mm512_maskz_insertf32x4(all, r, _mm_load_ps(base[j[2]].data()), 2);
+  return _mm512_maskz_insertf32x4(all, r, _mm_load_ps(base[j[3]].data()), 3);
 }
 
 /// Four scalars, each repeated over its 128-bit lane.
@@ -43,15 +45,14 @@ inline __m512 spreadFour(__m128 c)
       __mmask16(0xFFFF), _mm512_setr_epi32(0, 0, 0, 0, 1, 1, 1, 1, 2, 2, 2, 2, 3, 3, 3, 3), _mm512_zextps128_ps512(c));
 }
 
-/// The four lanes' sum as one Vec4, (lane 0 + lane 2) + (lane 1 + lane 3) (in-register shuffles;
-/// GCC 12's extract intrinsics warn of an uninitialised operand).
+/// The four lanes' sum as one Vec4, (lane 0 + lane 2) + (lane 1 + lane 3).
 inline __m128 sumLanes(__m512 v)
 {
-  const __m512 halves = _mm512_add_ps(v, _mm512_shuffle_f32x4(v, v, 0x4E));                          // lanes 2, 3, 0, 1
-  return _mm512_castps512_ps128(_mm512_add_ps(halves, _mm512_shuffle_f32x4(halves, halves, 0xB1)));  // 1, 0, 3, 2
+  const __mmask16 all = 0xFFFF;
+  const __m512 halves = _mm512_add_ps(v, _mm512_maskz_shuffle_f32x4(all, v, v, 0x4E));  // lanes 2, 3, 0, 1
+  return _mm512_maskz_extractf32x4_ps(__mmask8(0xF),
+                                      _mm512_add_ps(halves, _mm512_maskz_shuffle_f32x4(all, halves, halves, 0xB1)), 0);
 }
-#else
-constexpr bool kQuadPairs = false;
 #endif
 
 template <class Method>
@@ -354,10 +355,9 @@ private:
     Vec4 sum = Vec4::Zero();
     Index k = ff_.offset[i];
     const Index end = ff_.offset[i + 1];
-#if defined(__AVX512F__)
-    if constexpr (kQuadPairs)
+#ifdef FLUID_SIM_QUAD_PAIRS
     {
-      // Four pairs at a time (kQuadPairs): grad_factor (f_i - f_j) * (x_i - x_j) per lane.
+      // Four pairs at a time (FLUID_SIM_QUAD_PAIRS): grad_factor (f_i - f_j) * (x_i - x_j) per lane.
       const __m512 xi16 = _mm512_maskz_broadcast_f32x4(__mmask16(0xFFFF), _mm_load_ps(xi.data()));
       const __m512 fi16 = _mm512_maskz_broadcast_f32x4(__mmask16(0xFFFF), _mm_load_ps(fi.data()));
       __m512 acc = _mm512_setzero_ps();
@@ -466,10 +466,9 @@ private:
       Vec4 acc4 = Vec4::Zero();
       Index k = ff_.offset[i];
       const Index end = ff_.offset[i + 1];
-#if defined(__AVX512F__)
-      if constexpr (kQuadPairs)
+#ifdef FLUID_SIM_QUAD_PAIRS
       {
-        // Four pairs at a time (kQuadPairs): m (kappa_i + kappa_j) grad_factor (x_i - x_j) per lane.
+        // Four pairs at a time (FLUID_SIM_QUAD_PAIRS): m (kappa_i + kappa_j) grad_factor (x_i - x_j) per lane.
         const __m512 xi16 = _mm512_maskz_broadcast_f32x4(__mmask16(0xFFFF), _mm_load_ps(xi4.data()));
         const __m128 ki4 = _mm_set1_ps(ki), m4 = _mm_set1_ps(mass_);
         const float* const kappa = p_over_rho2_.data();
