@@ -496,12 +496,12 @@ private:
 
   /// computePressureAcceleration() for p = 0 everywhere where the method's p_b is then zero too
   /// (vanishesAtZero): every term of Eq. 1 is zero, so a^p = 0 without the pass over the pairs,
-  /// and the sweep after it needs none either (D_i = 0, Eq. A7): from zero, the cold start's
-  /// default, the first iteration is the O(n) update p_i = omega s_i / A_i (Eq. A8 with D_i = 0;
-  /// clamped at zero in the density solve), and a divergence
-  /// solve's single iteration makes one pass over the pairs instead of three, a density solve's
-  /// two iterations three instead of five. a4_ and p_over_rho2_ are written with the zeros the
-  /// pass would give (XSPH left its own values in them, forceScratch()).
+  /// and the sweep after it needs none either (D_i = 0, Eq. A7). From zero, the cold start's
+  /// default, the first iteration is then the O(n) update p_i = omega s_i / A_i (Eq. A8 with
+  /// D_i = 0; clamped at zero in the density solve): a divergence solve's single iteration makes
+  /// one pass over the pairs instead of three, a density solve's two iterations three instead of
+  /// five. a4_ and p_over_rho2_ are written with the zeros the pass would give (XSPH left its own
+  /// values in them, forceScratch()).
   void zeroPressureAcceleration()
   {
     const std::size_t n = fluid_.size();
