@@ -771,8 +771,8 @@ TEST(Simulation, ASolveFromZeroSkipsOnlyThePressurePassThatIsZero)
   // sweep, and once at the end. From zero the first a^p is zero wherever the wall term vanishes
   // with the fluid's pressure, and that pass is skipped: mirroring and MLS in both solves, SPH only in the
   // divergence solve (its density solve's p_b carries the hydrostatic constant, non-zero at p = 0,
-  // and must be summed). The skip writes the zero the pass would have given (bit-identical: the
-  // shipped scenes' results by scripts/result_hashes.py, 60 of 60 runs).
+  // and must be summed). Skipping it changes no result (bit-identical: the shipped scenes'
+  // results by scripts/result_hashes.py, 60 of 60 runs).
   for (BoundaryPressureMethod method : {BoundaryPressureMethod::Mirroring, BoundaryPressureMethod::MirroringEq2,
                                         BoundaryPressureMethod::SphExtrapolation, BoundaryPressureMethod::Mls})
   {

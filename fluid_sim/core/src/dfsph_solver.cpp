@@ -494,22 +494,6 @@ private:
     });
   }
 
-  /// computePressureAcceleration() for p = 0 everywhere where the method's p_b is then zero too
-  /// (vanishesAtZero): every term of Eq. 1 is zero, so a^p = 0 without the pass over the pairs,
-  /// and the sweep after it needs none either (D_i = 0, Eq. A7). From zero, the cold start's
-  /// default, the first iteration is then the O(n) update p_i = omega s_i / A_i (Eq. A8 with
-  /// D_i = 0; clamped at zero in the density solve): a divergence solve's single iteration makes
-  /// one pass over the pairs instead of three, a density solve's two iterations three instead of
-  /// five. a4_ and p_over_rho2_ are written with the zeros the pass would give (XSPH left its own
-  /// values in them, forceScratch()).
-  void zeroPressureAcceleration()
-  {
-    const std::size_t n = fluid_.size();
-    p_over_rho2_.assign(n, Real(0));
-    a4_.resize(n);
-    parallelFor(n, [&](std::size_t i) { a4_[i].setZero(); });
-  }
-
   /// What a Jacobi sweep sums over the particles: the stopping error's terms (Eq. A9, relative)
   /// and the largest active residual |s_i - D_i| dt^2/rho0.
   struct SweepFigures
@@ -519,8 +503,8 @@ private:
 
   /// One relaxed Jacobi sweep: D_i (Eq. A7), p_i += omega (s_i - D_i)/A_i (Eq. A8), extrapolated
   /// with the Chebyshev weight (Eq. A8a; 1 = none). Returns the stopping error (Eq. A9) of the
-  /// pressures before this update. `zero_acceleration`: a^p is zero everywhere
-  /// (zeroPressureAcceleration()), so every D_i is zero and the sweep needs no pass over the pairs.
+  /// pressures before this update. `zero_acceleration`: a^p is zero everywhere (from zero, see
+  /// solve()), so every D_i is zero and the sweep needs no pass over the pairs.
   double jacobiUpdate(std::vector<Real>& p, double dt, bool clamp_p, Real weight, bool zero_acceleration)
   {
     const std::size_t n = fluid_.size();
@@ -611,12 +595,19 @@ private:
     {
       if (it == kWallFloorFromSweep)  // Eq. A4d: A_i is negative, the floor its fraction of A_full's
         for (const FlooredDiagonal& f : floored_) diagonal_[f.i] = -Real(kWallDiagonalFloor * reference_diagonal_);
-      method_.extrapolate(p, density_solve);
+      // From zero, where the method's p_b is then zero too (vanishesAtZero), every term of Eq. 1
+      // is zero: a^p = 0 without the pass over the pairs, and the sweep needs none either (D_i = 0,
+      // Eq. A7), so the first iteration is the O(n) update p_i = omega s_i / A_i (Eq. A8, clamped
+      // at zero in the density solve). A divergence solve's single iteration then makes one pass
+      // over the pairs instead of three, a density solve's two three instead of five. Nothing reads
+      // p_b, a4_ or p_over_rho2_ before the next evaluation writes them, so neither the
+      // extrapolation nor the pass is made.
       const bool zero_acceleration = it == 0 && from_zero && method_.vanishesAtZero(density_solve);
-      if (zero_acceleration)
-        zeroPressureAcceleration();
-      else
+      if (!zero_acceleration)
+      {
+        method_.extrapolate(p, density_solve);
         computePressureAcceleration(p);
+      }
       if (rho > 0)  // Eq. A8a: the weights of Chebyshev's semi-iteration for the radius rho
       {
         const int delay = scene_.solver.chebyshev_delay;
