@@ -7,6 +7,7 @@
         --sph-scene-dir /path/to/SPlisHSPlasH/data/Scenes \
         [--case 0.031:300:3 --case 0.017:60:2] [--rounds 2] [--threads 2] [--out DIR]
         [--sph-fluid block|rest] [--cold-start zero|jacobi] [--set KEY=VALUE ...]
+        [--sph-bin-cold /path/to/a/cold/SPHSimulator]
 
 For every case (spacing S in m, N steps of 1 ms) and every round, it runs in turn
   1. ours, cold:  fluid_sim_bench SCENE --spacing S --method all --warmup 0 --steps N --threads T --json F
@@ -28,7 +29,11 @@ have z up; DFSPH with Akinci boundary particles (boundaryHandlingMethod 0), a fi
 box mesh is data/models/UnitBox.obj next to --sph-scene-dir.
 
 SPlisHSPlasH's DFSPH always warm-starts both solves (half the previous step's pressure), so its
-single row per round is compared with both our cold and our warm rows.
+single row per round is compared with both our cold and our warm rows. With --sph-bin-cold, a
+second SPlisHSPlasH binary built with that warm start compiled out (its TimeStepDFSPH with
+USE_WARMSTART and USE_WARMSTART_V undefined; each solve then starts from one unrelaxed Jacobi
+step) runs too, after the first in every round, and our cold rows are compared with it: cold
+against cold, warm against warm. The summary then also gives our cold rows against its warm run.
 
 SPlisHSPlasH gives a particle of diameter d the volume 0.8 d^3, so its block on our lattice
 (the default, --sph-fluid block, the comparison the issue specified) starts at 0.8 of its rest
@@ -303,16 +308,17 @@ AVG_NUMBER = re.compile(r"Average number: (.+?): ([-+0-9.eE]+)")
 TOTAL_NUMBER = re.compile(r"Total number: (.+?): ([-+0-9.eE]+)")
 
 
-def run_theirs(args, scene_path, steps, dt, workdir, tag):
+def run_theirs(args, scene_path, steps, dt, workdir, tag, binary=None, start="warm (always)"):
+    binary = binary or args.sph_bin
     outdir = os.path.join(workdir, f"sph_out_{tag}")
     os.makedirs(outdir, exist_ok=True)
     env = dict(os.environ, OMP_NUM_THREADS=str(args.threads))
     env.update(kv.split("=", 1) for kv in args.sph_env)
     # stopAt halfway into step N + 1: SPlisHSPlasH steps while time <= stopAt, so N steps.
     stop_at = (steps - 0.5) * dt
-    cmd = [args.sph_bin, "--no-gui", "--stopAt", repr(stop_at), "--output-dir", outdir, scene_path]
+    cmd = [binary, "--no-gui", "--stopAt", repr(stop_at), "--output-dir", outdir, scene_path]
     out, wall, cpu = run(cmd, env=env, log=os.path.join(workdir, f"sph_{tag}.log"))
-    print(f"    SPlisHSPlasH {tag}: {wall:.0f} s wall, {cpu:.0f} s CPU ({cpu / wall / args.threads:.0%} of "
+    print(f"    SPlisHSPlasH {start} {tag}: {wall:.0f} s wall, {cpu:.0f} s CPU ({cpu / wall / args.threads:.0%} of "
           f"{args.threads} cores; includes its boundary sampling unless cached)", flush=True)
     avg = {m.group(1): float(m.group(2)) for m in AVG_TIME.finditer(out)}
     sums = {m.group(1): float(m.group(2)) for m in TIME_SUM.finditer(out)}
@@ -329,7 +335,7 @@ def run_theirs(args, scene_path, steps, dt, workdir, tag):
     dens = avg.get("pressureSolve", 0.0)
     shutil.rmtree(outdir, ignore_errors=True)
     return [{
-        "code": "SPlisHSPlasH", "method": "akinci", "start": "warm (always)",
+        "code": "SPlisHSPlasH", "method": "akinci", "start": start,
         "fluid": int(fluid.group(1)), "boundary": int(boundary.group(1)) if boundary else 0,
         "steps": n_steps, "sim_time": totals.get("Time step size", float("nan")),
         "ms": total, "nbr": nbr, "div": div, "dens": dens, "rest": total - nbr - div - dens,
@@ -348,6 +354,20 @@ def us_per_particle_step(row):
     return 1000.0 * row["ms"] / row["fluid"]
 
 
+THEIRS_COLD = "cold (warm start compiled out)"
+
+
+def reference(rows, row, like_for_like=True):
+    """SPlisHSPlasH's row of the round that `row` (one of ours) is compared with: its cold run for
+    our cold rows when there is one (and like_for_like), else its warm run."""
+    theirs = [r for r in rows if r["code"] == "SPlisHSPlasH"]
+    warm = next(r for r in theirs if r["start"] != THEIRS_COLD)
+    cold = next((r for r in theirs if r["start"] == THEIRS_COLD), None)
+    if like_for_like and cold is not None and row["start"].startswith("cold"):
+        return cold
+    return warm
+
+
 def split(row, key):
     return f"{row[key]:.1f} ({100.0 * row[key] / row['ms']:.0f} %)" if row["ms"] > 0 else "-"
 
@@ -360,9 +380,9 @@ def print_table(results):
     print("|" + " --- |" * len(header))
     for case in results:
         for rnd, rows in enumerate(case["rounds"], start=1):
-            theirs = next(r for r in rows if r["code"] == "SPlisHSPlasH")
             for r in rows:
-                ratio = "" if r is theirs else f"{us_per_particle_step(r) / us_per_particle_step(theirs):.2f}"
+                ratio = "" if r["code"] == "SPlisHSPlasH" else \
+                    f"{us_per_particle_step(r) / us_per_particle_step(reference(rows, r)):.2f}"
                 if r["flags"] not in ("", "ok"):
                     ratio += f" ({r['flags']})"
                 print("| " + " | ".join([
@@ -372,23 +392,28 @@ def print_table(results):
 
 
 def print_summary(results, target):
-    print(f"\nours/theirs per particle-step, over the rounds (target: at most {target}):")
+    has_cold = any(r["start"] == THEIRS_COLD for case in results for rows in case["rounds"] for r in rows)
+    readings = [(True, "cold against its cold run, warm against its warm run")] if has_cold else []
+    readings.append((False, "every row against its warm-started run"))
+    for like_for_like, what in readings:
+        print(f"\nours/theirs per particle-step, over the rounds, {what} (target: at most {target}):")
+        for case in results:
+            ratios = {}
+            for rows in case["rounds"]:
+                for r in rows:
+                    if r["code"] != "SPlisHSPlasH":
+                        ref = reference(rows, r, like_for_like)
+                        ratios.setdefault((r["method"], r["start"]), []).append(
+                            us_per_particle_step(r) / us_per_particle_step(ref))
+            worst = max(max(v) for v in ratios.values())
+            print(f"  spacing {case['spacing']} m ({case['steps']} steps): " + ", ".join(
+                f"{m} {s} {min(v):.2f}-{max(v):.2f}" for (m, s), v in ratios.items()) +
+                f"; worst {worst:.2f}: {'holds' if worst <= target else 'does NOT hold'}")
     for case in results:
-        ratios = {}
-        for rows in case["rounds"]:
-            theirs = next(r for r in rows if r["code"] == "SPlisHSPlasH")
-            for r in rows:
-                if r is not theirs:
-                    ratios.setdefault((r["method"], r["start"]), []).append(
-                        us_per_particle_step(r) / us_per_particle_step(theirs))
-        worst = max(max(v) for v in ratios.values())
-        print(f"  spacing {case['spacing']} m ({case['steps']} steps): " + ", ".join(
-            f"{m} {s} {min(v):.2f}-{max(v):.2f}" for (m, s), v in ratios.items()) +
-            f"; worst {worst:.2f}: {'holds' if worst <= target else 'does NOT hold'}")
         theirs_phases = [r["phases"] for rows in case["rounds"] for r in rows if r["code"] == "SPlisHSPlasH"]
         if theirs_phases:
             keys = sorted(set().union(*theirs_phases), key=lambda k: -theirs_phases[0].get(k, 0.0))
-            print("    SPlisHSPlasH's phases, ms/step by round: " + "; ".join(
+            print(f"  spacing {case['spacing']} m: SPlisHSPlasH's phases, ms/step by run: " + "; ".join(
                 f"{k} " + "/".join(f"{p.get(k, 0.0):.2f}" for p in theirs_phases) for k in keys))
 
 
@@ -415,6 +440,19 @@ def self_test(our_scene_path):
     density = SPH_VOLUME_FACTOR * f ** 3 * cubic_lattice_sum(2.0 * f)
     if abs(density - 1.0) > 1e-9 or not 1.07 < f < 1.08:
         failures.append(f"rest_density_diameter_factor() = {f} gives density {density}, expected 1")
+    # The pairing of rows: our cold rows against its cold run when there is one, else its warm run.
+    ours_cold = {"code": "ours", "start": "cold"}
+    ours_cold_jacobi = {"code": "ours", "start": "cold (jacobi) [solver.chebyshev_rho=0.95]"}
+    ours_warm = {"code": "ours", "start": "warm"}
+    theirs_warm = {"code": "SPlisHSPlasH", "start": "warm (always)"}
+    theirs_cold = {"code": "SPlisHSPlasH", "start": THEIRS_COLD}
+    both = [ours_cold, ours_cold_jacobi, ours_warm, theirs_warm, theirs_cold]
+    pairs = [(reference(both, ours_cold), theirs_cold), (reference(both, ours_cold_jacobi), theirs_cold),
+             (reference(both, ours_warm), theirs_warm), (reference(both, ours_cold, False), theirs_warm),
+             (reference(both[:4], ours_cold), theirs_warm)]
+    for k, (got, expected) in enumerate(pairs):
+        if got is not expected:
+            failures.append(f"reference() case {k}: {got['start']}, expected {expected['start']}")
     with open(our_scene_path) as fh:
         our_scene = yaml.safe_load(fh)
     spacing = 0.031
@@ -452,6 +490,10 @@ def main():
     p.add_argument("--sph-bin", required=True, help="SPlisHSPlasH's bin/SPHSimulator")
     p.add_argument("--sph-scene-dir", required=True,
                    help="SPlisHSPlasH's data/Scenes (its box mesh is ../models/UnitBox.obj)")
+    p.add_argument("--sph-bin-cold",
+                   help="a second SPHSimulator built with its DFSPH warm start compiled out (USE_WARMSTART, "
+                        "USE_WARMSTART_V undefined): run after the first in every round, our cold rows "
+                        "compared with it")
     p.add_argument("--sph-env", action="append", default=[],
                    help="KEY=VALUE for SPlisHSPlasH's environment, repeatable (e.g. OMP_WAIT_POLICY=PASSIVE)")
     p.add_argument("--case", action="append", default=[],
@@ -477,6 +519,8 @@ def main():
     args.bench = os.path.abspath(args.bench)
     args.scene = os.path.abspath(args.scene)
     args.sph_bin = os.path.abspath(args.sph_bin)
+    if args.sph_bin_cold:
+        args.sph_bin_cold = os.path.abspath(args.sph_bin_cold)
     cases = []
     for c in args.case or ["0.031:300"]:
         parts = c.split(":")
@@ -510,7 +554,12 @@ def main():
     print(f"workdir {workdir}; {args.threads} threads each; load average at start {load_average()}")
     if args.sph_env:
         print("SPlisHSPlasH's extra environment: " + " ".join(args.sph_env))
-    print("SPlisHSPlasH's DFSPH always warm-starts both solves; its row is compared with our cold and warm rows.\n")
+    if args.sph_bin_cold:
+        print(f"SPlisHSPlasH warm ({args.sph_bin}) and with its warm start compiled out ({args.sph_bin_cold}): "
+              "our cold rows against its cold run, our warm rows against its warm run.\n")
+    else:
+        print("SPlisHSPlasH's DFSPH always warm-starts both solves; its row is compared with our cold and warm "
+              "rows.\n")
     results = []
     t0 = time.monotonic()
     for spacing, steps, rounds in cases:
@@ -520,6 +569,9 @@ def main():
             rows = run_ours(args, spacing, steps, False, workdir, tag + "_cold")
             rows += run_ours(args, spacing, steps, True, workdir, tag + "_warm")
             rows += run_theirs(args, scene_paths[spacing], steps, dt, workdir, tag)
+            if args.sph_bin_cold:
+                rows += run_theirs(args, scene_paths[spacing], steps, dt, workdir, tag + "_cold", args.sph_bin_cold,
+                                   THEIRS_COLD)
             case["rounds"].append(rows)
             case["load"].append(load_average())
             print(f"  spacing {spacing} round {rnd} done after {time.monotonic() - t0:.0f} s, "
