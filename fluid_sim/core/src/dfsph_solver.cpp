@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 
 // The solver passes four pairs at a time with AVX-512 in float (FLUID_SIM_QUAD_PAIRS below).
 #if defined(__AVX512F__) && !defined(FLUID_SIM_USE_DOUBLE)
@@ -199,6 +200,7 @@ private:
     // The extrapolations keep gsum_i for Eq. A4b in a4_, which holds nothing until the divergence
     // solve's first a^p (12 B per particle less than an array of its own).
     if constexpr (Method::kExtrapolated) a4_.resize(n);
+    if constexpr (kWallOnlyStart) wall_zone_.resize(n);
     source_.resize(n);
     wall_dv_.assign(n, Vec3::Zero());  // a new step: the wall-work record restarts at zero
     padPositions();
@@ -238,6 +240,19 @@ private:
       fluid_.rho[i] = density;
       density_rate_[i] = rate;
       grad_b_[i] = gb;
+      if constexpr (kWallOnlyStart)
+      {
+        // Where a density solve from zero first has a^p != 0 (the wall term of the hydrostatic
+        // constant, solve()): i's own wall neighbours, or a fluid neighbour's. The row's indices
+        // are still in cache; the first hit ends the scan.
+        bool zone = fb_.offset[i] != fb_.offset[i + 1];
+        for (Index k = ff_.offset[i]; !zone && k < ff_.offset[i + 1]; ++k)
+        {
+          const Index j = ff_.index[k];
+          zone = fb_.offset[j] != fb_.offset[j + 1];
+        }
+        wall_zone_[i] = zone;
+      }
       const Vec3 gsum = mass_ * gf + gb;
       if constexpr (Method::kExtrapolated) a4_[i] << gsum, Real(0);
       diagonal_[i] = -(gsum.squaredNorm() + mass_ * mass_ * sq) / (density * density);
@@ -448,6 +463,24 @@ private:
     return parallelMax(p.size(), [&](std::size_t i) { return p[i] != Real(0) ? 1.0 : 0.0; }) == 0.0;
   }
 
+  /// Eq. 1 where every fluid pressure is zero (a density solve from zero with SPH's hydrostatic
+  /// constant in p_b, solve()): every fluid pair's term m (kappa_i + kappa_j) grad W_ij is zero,
+  /// so a^p is the wall term alone, summed over the fluid-boundary pairs only (m/s^2). The same
+  /// values as computePressureAcceleration() gives for p = 0, bit for bit: its fluid sum adds
+  /// only zeros to +0. Not a pass over the fluid pairs (not counted in pressure_passes_).
+  void computeWallAcceleration(const std::vector<Real>& p)
+  {
+    const std::size_t n = fluid_.size();
+    p_over_rho2_.assign(n, Real(0));
+    a4_.resize(n);
+    parallelFor(n, [&](std::size_t i) {
+      Vec3 acc = Vec3::Zero();
+      Vec3 unused = Vec3::Zero();
+      method_.template addWallAcceleration<false>(i, fluid_.x[i], Real(0), p[i], grad_b_[i], Real(0), acc, unused);
+      a4_[i] << acc, Real(0);
+    });
+  }
+
   /// Eq. 1 with the method's boundary term: a^p from the pressures p into a4 (m/s^2). With
   /// kRecordWall (the final evaluation of a solve) it also adds wall_dt (s) times the p_b part of
   /// the wall term to wall_dv (the wall-work diagnostic).
@@ -505,7 +538,8 @@ private:
   /// with the Chebyshev weight (Eq. A8a; 1 = none). Returns the stopping error (Eq. A9) of the
   /// pressures before this update. `zero_acceleration`: a^p is zero everywhere (from zero, see
   /// solve()), so every D_i is zero and the sweep needs no pass over the pairs.
-  double jacobiUpdate(std::vector<Real>& p, double dt, bool clamp_p, Real weight, bool zero_acceleration)
+  double jacobiUpdate(std::vector<Real>& p, double dt, bool clamp_p, Real weight, bool zero_acceleration,
+                      bool wall_only = false)
   {
     const std::size_t n = fluid_.size();
     const Real omega = Real(scene_.solver.omega);
@@ -523,6 +557,14 @@ private:
           if (zero_acceleration)
             for (std::size_t i = range.begin(); i != range.end(); ++i)
               sweep<true>(i, p, clamp_p, omega, weight, dt2_over_rho0, guessed, acc);
+          else if (wall_only)  // a^p = 0 outside the wall zone: D_i = 0 there without the pairs
+            for (std::size_t i = range.begin(); i != range.end(); ++i)
+            {
+              if (wall_zone_[i])
+                sweep<false>(i, p, clamp_p, omega, weight, dt2_over_rho0, guessed, acc);
+              else
+                sweep<true>(i, p, clamp_p, omega, weight, dt2_over_rho0, guessed, acc);
+            }
           else
             for (std::size_t i = range.begin(); i != range.end(); ++i)
               sweep<false>(i, p, clamp_p, omega, weight, dt2_over_rho0, guessed, acc);
@@ -603,17 +645,26 @@ private:
       // p_b, a4_ or p_over_rho2_ before the next evaluation writes them, so neither the
       // extrapolation nor the pass is made.
       const bool zero_acceleration = it == 0 && from_zero && method_.vanishesAtZero(density_solve);
+      // From zero where p_b does not vanish (SPH's density solve: the hydrostatic constant), a^p
+      // is the wall term alone, non-zero only next to a wall, and D_i (Eq. A7) non-zero only in
+      // the wall zone (densityDiagonalAndRate()): the first iteration sums the fluid-boundary
+      // pairs and the zone's rows, not every pair twice. Bit-identical to the full evaluation.
+      bool wall_only = false;
+      if constexpr (kWallOnlyStart) wall_only = it == 0 && from_zero && !zero_acceleration;
       if (!zero_acceleration)
       {
         method_.extrapolate(p, density_solve);
-        computePressureAcceleration(p);
+        if (wall_only)
+          computeWallAcceleration(p);
+        else
+          computePressureAcceleration(p);
       }
       if (rho > 0)  // Eq. A8a: the weights of Chebyshev's semi-iteration for the radius rho
       {
         const int delay = scene_.solver.chebyshev_delay;
         weight = it < delay ? 1.0 : it == delay ? 2.0 / (2.0 - rho * rho) : 4.0 / (4.0 - rho * rho * weight);
       }
-      error = jacobiUpdate(p, dt, density_solve, Real(weight), zero_acceleration);
+      error = jacobiUpdate(p, dt, density_solve, Real(weight), zero_acceleration, wall_only);
       ++it;
       if (it >= min_it && error <= tol)
       {
@@ -687,6 +738,11 @@ private:
   std::vector<Vec3> wall_dv_;     // m/s, this step's velocity change from the p_b wall term
   std::vector<Vec3> still_wall_;  // m/s, zeros (diagnostic: walls still in Eq. A2)
   std::vector<Real> p_before_;    // Pa, p^(k-1) of Eq. A8a: each sweep's pressures before it (Chebyshev only)
+  // A method whose density-solve p_b does not vanish at p = 0 (SPH's hydrostatic constant) starts
+  // such a solve from zero with the wall term alone (solve()); wall_zone_ (per particle, this
+  // step) marks where that a^p reaches: a wall neighbour of i or of a fluid neighbour of i.
+  static constexpr bool kWallOnlyStart = !Method::vanishesAtZero(true);
+  std::vector<std::uint8_t> wall_zone_;
   struct FlooredDiagonal
   {
     Index i;        // particle

@@ -60,8 +60,9 @@ struct StepReport
   std::size_t neighbor_pairs = 0;  // fluid-fluid + fluid-boundary pairs in this step's lists
   // Evaluations of the pressure acceleration (Eq. 1, a pass over the pairs each) in both solves:
   // iterations + 1 per solve (each iteration's, and the final one), one fewer for a solve that
-  // starts from zero where the wall term vanishes with p (the first a^p is then zero). Each
-  // iteration also makes one Jacobi sweep over the pairs (Eq. A7).
+  // starts from zero (the first a^p is then zero, or, for SPH's density solve with its hydrostatic
+  // p_b, the wall term alone, summed over the fluid-boundary pairs only). Each iteration also
+  // makes one Jacobi sweep over the pairs (Eq. A7).
   int pressure_passes = 0;
   bool unstable = false;
   std::string reason;  // why unstable
