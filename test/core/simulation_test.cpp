@@ -803,5 +803,26 @@ TEST(Simulation, ASolveFromZeroSkipsOnlyThePressurePassThatIsZero)
       full_steps += r.pressure_passes == full;
     }
     EXPECT_GT(full_steps, 0) << toString(method);
+    // With the warm start the divergence solve still starts cold (solver.warm_start_divergence
+    // off), from zero here: its first pass is skipped in every step, whatever the density solve
+    // does. With warm_start_divergence it starts from the previous step's pressure too, and some
+    // step then makes every pass.
+    scene.solver.cold_start = ColdStart::Zero;
+    scene.solver.warm_start = true;
+    for (const bool divergence_too : {false, true})
+    {
+      scene.solver.warm_start_divergence = divergence_too;
+      Simulation warm(scene);
+      int all_passes = 0;
+      for (int step = 0; step < 5; ++step)
+      {
+        const StepReport r = warm.step();
+        ASSERT_FALSE(r.unstable) << r.reason;
+        const int full = (r.divergence_iterations + 1) + (r.density_iterations + 1);
+        if (!divergence_too) EXPECT_LE(r.pressure_passes, full - 1) << toString(method) << ", step " << step;
+        all_passes += r.pressure_passes == full;
+      }
+      if (divergence_too) EXPECT_GT(all_passes, 0) << toString(method);
+    }
   }
 }

@@ -34,6 +34,7 @@ solver:
   min_divergence_iterations: 2
   divergence_solve: false
   warm_start: true
+  warm_start_divergence: true
   cold_start: jacobi
   warm_start_guess: damped
   omega: 0.6
@@ -141,6 +142,7 @@ TEST(SceneLoader, FullExampleParses)
   EXPECT_EQ(s.solver.min_divergence_iterations, 2);
   EXPECT_FALSE(s.solver.divergence_solve);
   EXPECT_TRUE(s.solver.warm_start);
+  EXPECT_TRUE(s.solver.warm_start_divergence);        // the default is false
   EXPECT_EQ(s.solver.cold_start, ColdStart::Jacobi);  // the default is zero
   EXPECT_EQ(s.solver.warm_start_guess, WarmStartGuess::Damped);
   EXPECT_DOUBLE_EQ(s.solver.omega, 0.6);
@@ -227,6 +229,7 @@ TEST(SceneLoader, DefaultsForAbsentKeys)
   EXPECT_EQ(s.solver.boundary_pressure, defaults.solver.boundary_pressure);
   EXPECT_EQ(s.solver.cold_start, ColdStart::Zero);
   EXPECT_EQ(s.solver.warm_start_guess, WarmStartGuess::Previous);
+  EXPECT_FALSE(s.solver.warm_start_divergence);  // the warm start's divergence solve starts cold
   EXPECT_DOUBLE_EQ(s.solver.chebyshev_rho, 0.0);  // Eq. A8a off by default: plain sweeps
   EXPECT_EQ(s.solver.chebyshev_delay, 3);
   EXPECT_DOUBLE_EQ(s.rest_density, defaults.rest_density);

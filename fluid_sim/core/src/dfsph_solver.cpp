@@ -93,6 +93,11 @@ public:
     // Eq. A5: only compression counts (the free surface is not pulled in). The density rate is
     // the one of densityDiagonalAndRate(): the velocities have not changed since.
     parallelFor(n, [&](std::size_t i) { source_[i] = -std::max(density_rate_[i], Real(0)) / Real(dt); });
+    // The warm start carries over to this solve only with solver.warm_start_divergence: from its
+    // cold start it converged in as many iterations per step (1.00-1.02 in bench_dam_break at
+    // 33 k and 195 k, 1.00 in the demo's scene), and a solve from zero makes its first iteration
+    // without the passes over the pairs (docs/performance.md, "The warm start's divergence solve").
+    warm_ = scene_.solver.warm_start && scene_.solver.warm_start_divergence;
     const bool from_zero = startingPressure(fluid_.p_divergence);
     rep.divergence_iterations =
         solve(fluid_.p_divergence, dt, false, scene_.solver.divergence_error, scene_.solver.min_divergence_iterations,
@@ -108,6 +113,7 @@ public:
     // Eq. A6.
     const Real inv_dt = Real(1.0 / dt), inv_dt2 = Real(1.0 / (dt * dt));
     parallelFor(n, [&](std::size_t i) { source_[i] = (rho0_ - fluid_.rho[i]) * inv_dt2 - density_rate_[i] * inv_dt; });
+    warm_ = scene_.solver.warm_start;
     const bool from_zero = startingPressure(fluid_.p_density);
     density_residual_max_.clear();
     rep.density_iterations = solve(fluid_.p_density, dt, true, scene_.solver.density_error,
@@ -416,7 +422,8 @@ private:
 
   /// Eq. A10: the first guess of a solve whose source and diagonal are set, non-zero only where
   /// the water is compressing now (s_i < 0) and is at or above rest density. Cold (no
-  /// solver.warm_start): one unrelaxed Jacobi step from zero there, p_i = s_i / A_i (Eq. A8 with
+  /// solver.warm_start; with it, the divergence solve unless solver.warm_start_divergence): one
+  /// unrelaxed Jacobi step from zero there, p_i = s_i / A_i (Eq. A8 with
   /// omega = 1 and D_i = 0), which needs no pair pass (solver.cold_start: jacobi), or zero
   /// everywhere (solver.cold_start: zero, the paper's start and the default: with the Jacobi step
   /// the full validation's 1 m MLS column blew up and its submerged cube read 9 % more buoyancy,
@@ -431,7 +438,7 @@ private:
   /// 0.5 rho0 still, at or above 0.9 rho0 not). Returns whether the guess is zero everywhere.
   bool startingPressure(std::vector<Real>& p)
   {
-    if (!scene_.solver.warm_start && scene_.solver.cold_start == ColdStart::Zero)
+    if (!warm_ && scene_.solver.cold_start == ColdStart::Zero)
     {
       std::fill(p.begin(), p.end(), Real(0));
       return true;
@@ -441,7 +448,7 @@ private:
     // damped (A10b). A_i < 0 (Eq. A4), so s_i < 0 gives s_i / A_i > 0; a lone particle (A_i = 0)
     // takes no Jacobi step.
     Real keep = 0, step = 1;
-    if (scene_.solver.warm_start)
+    if (warm_)
     {
       // Damped: the previous pressure alone is a lagging (integrating) feedback on the water's
       // compression: in still water it swings from step to step (0.17-2.6 of its mean at 3-4 s
@@ -546,8 +553,7 @@ private:
     const Real dt2_over_rho0 = Real(dt * dt / rho0_);
     // Any first guess but zero can be too high somewhere, and so can an extrapolated sweep
     // (Eq. A8a, weights above 1): then |residual| counts (sweep()).
-    const bool guessed =
-        scene_.solver.warm_start || scene_.solver.cold_start == ColdStart::Jacobi || scene_.solver.chebyshev_rho > 0;
+    const bool guessed = warm_ || scene_.solver.cold_start == ColdStart::Jacobi || scene_.solver.chebyshev_rho > 0;
     // The sweep is itself the reduction of its two figures, the error sum (Eq. A9) and the largest
     // active residual, in the chunks and order of parallelSum: the same sums as from per-particle
     // arrays, without the arrays (8 B per particle).
@@ -738,6 +744,7 @@ private:
   std::vector<Vec3> wall_dv_;     // m/s, this step's velocity change from the p_b wall term
   std::vector<Vec3> still_wall_;  // m/s, zeros (diagnostic: walls still in Eq. A2)
   std::vector<Real> p_before_;    // Pa, p^(k-1) of Eq. A8a: each sweep's pressures before it (Chebyshev only)
+  bool warm_ = false;             // the current solve starts from the previous step's guess (startingPressure())
   // A method whose density-solve p_b does not vanish at p = 0 (SPH's hydrostatic constant) starts
   // such a solve from zero with the wall term alone (solve()); wall_zone_ (per particle, this
   // step) marks where that a^p reaches: a wall neighbour of i or of a fluid neighbour of i.

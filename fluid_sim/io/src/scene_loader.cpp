@@ -118,6 +118,7 @@ SolverConfig readSolver(const Entry& e)
   r.read("min_divergence_iterations", s.min_divergence_iterations);
   r.read("divergence_solve", s.divergence_solve);
   r.read("warm_start", s.warm_start);
+  r.read("warm_start_divergence", s.warm_start_divergence);
   if (auto m = r.get("cold_start")) s.cold_start = readNamed(*m, {ColdStart::Zero, ColdStart::Jacobi});
   if (auto m = r.get("warm_start_guess"))
     s.warm_start_guess = readNamed(*m, {WarmStartGuess::Previous, WarmStartGuess::Damped});
