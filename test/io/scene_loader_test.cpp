@@ -229,7 +229,7 @@ TEST(SceneLoader, DefaultsForAbsentKeys)
   EXPECT_EQ(s.solver.boundary_pressure, defaults.solver.boundary_pressure);
   EXPECT_EQ(s.solver.cold_start, ColdStart::Zero);
   EXPECT_EQ(s.solver.warm_start_guess, WarmStartGuess::Previous);
-  EXPECT_FALSE(s.solver.warm_start_divergence);  // the warm start's divergence solve starts cold
+  EXPECT_FALSE(s.solver.warm_start_divergence);   // the warm start's divergence solve starts cold
   EXPECT_DOUBLE_EQ(s.solver.chebyshev_rho, 0.0);  // Eq. A8a off by default: plain sweeps
   EXPECT_EQ(s.solver.chebyshev_delay, 3);
   EXPECT_DOUBLE_EQ(s.rest_density, defaults.rest_density);

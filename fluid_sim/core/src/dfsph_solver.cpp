@@ -93,12 +93,7 @@ public:
     // Eq. A5: only compression counts (the free surface is not pulled in). The density rate is
     // the one of densityDiagonalAndRate(): the velocities have not changed since.
     parallelFor(n, [&](std::size_t i) { source_[i] = -std::max(density_rate_[i], Real(0)) / Real(dt); });
-    // The warm start carries over to this solve only with solver.warm_start_divergence: from its
-    // cold start it converged in as many iterations per step (1.00-1.02 in bench_dam_break at
-    // 33 k and 195 k, 1.00 in the demo's scene), and a solve from zero makes its first iteration
-    // without the passes over the pairs (docs/performance.md, "The warm start's divergence solve").
-    warm_ = scene_.solver.warm_start && scene_.solver.warm_start_divergence;
-    const bool from_zero = startingPressure(fluid_.p_divergence);
+    const bool from_zero = startingPressure(fluid_.p_divergence, false);
     rep.divergence_iterations =
         solve(fluid_.p_divergence, dt, false, scene_.solver.divergence_error, scene_.solver.min_divergence_iterations,
               from_zero, rep.divergence_error, rep.divergence_converged);
@@ -113,8 +108,7 @@ public:
     // Eq. A6.
     const Real inv_dt = Real(1.0 / dt), inv_dt2 = Real(1.0 / (dt * dt));
     parallelFor(n, [&](std::size_t i) { source_[i] = (rho0_ - fluid_.rho[i]) * inv_dt2 - density_rate_[i] * inv_dt; });
-    warm_ = scene_.solver.warm_start;
-    const bool from_zero = startingPressure(fluid_.p_density);
+    const bool from_zero = startingPressure(fluid_.p_density, true);
     density_residual_max_.clear();
     rep.density_iterations = solve(fluid_.p_density, dt, true, scene_.solver.density_error,
                                    scene_.solver.min_iterations, from_zero, rep.density_error, rep.density_converged);
@@ -420,6 +414,17 @@ private:
     });
   }
 
+  /// Whether the density (or divergence) solve starts from the previous step's guess: the density
+  /// solve with solver.warm_start, the divergence solve only with solver.warm_start_divergence too.
+  /// From its cold start the divergence solve converged in as many iterations per step (1.00-1.02
+  /// in bench_dam_break at 33 k and 195 k, 1.00 in the demo's scene), and a solve from zero makes
+  /// its first iteration without the passes over the pairs (docs/performance.md, "The warm start's
+  /// divergence solve").
+  bool warmStarted(bool density_solve) const
+  {
+    return scene_.solver.warm_start && (density_solve || scene_.solver.warm_start_divergence);
+  }
+
   /// Eq. A10: the first guess of a solve whose source and diagonal are set, non-zero only where
   /// the water is compressing now (s_i < 0) and is at or above rest density. Cold (no
   /// solver.warm_start; with it, the divergence solve unless solver.warm_start_divergence): one
@@ -436,9 +441,10 @@ private:
   /// (docs/method_notes.md); with the Jacobi step on every particle a splash particle at 0.32 rho0
   /// got 121 kPa and the cup test's water went non-finite in the next step (seeded at or above
   /// 0.5 rho0 still, at or above 0.9 rho0 not). Returns whether the guess is zero everywhere.
-  bool startingPressure(std::vector<Real>& p)
+  bool startingPressure(std::vector<Real>& p, bool density_solve)
   {
-    if (!warm_ && scene_.solver.cold_start == ColdStart::Zero)
+    const bool warm = warmStarted(density_solve);
+    if (!warm && scene_.solver.cold_start == ColdStart::Zero)
     {
       std::fill(p.begin(), p.end(), Real(0));
       return true;
@@ -448,7 +454,7 @@ private:
     // damped (A10b). A_i < 0 (Eq. A4), so s_i < 0 gives s_i / A_i > 0; a lone particle (A_i = 0)
     // takes no Jacobi step.
     Real keep = 0, step = 1;
-    if (warm_)
+    if (warm)
     {
       // Damped: the previous pressure alone is a lagging (integrating) feedback on the water's
       // compression: in still water it swings from step to step (0.17-2.6 of its mean at 3-4 s
@@ -553,7 +559,9 @@ private:
     const Real dt2_over_rho0 = Real(dt * dt / rho0_);
     // Any first guess but zero can be too high somewhere, and so can an extrapolated sweep
     // (Eq. A8a, weights above 1): then |residual| counts (sweep()).
-    const bool guessed = warm_ || scene_.solver.cold_start == ColdStart::Jacobi || scene_.solver.chebyshev_rho > 0;
+    // (clamp_p: the density solve.)
+    const bool guessed =
+        warmStarted(clamp_p) || scene_.solver.cold_start == ColdStart::Jacobi || scene_.solver.chebyshev_rho > 0;
     // The sweep is itself the reduction of its two figures, the error sum (Eq. A9) and the largest
     // active residual, in the chunks and order of parallelSum: the same sums as from per-particle
     // arrays, without the arrays (8 B per particle).
@@ -744,7 +752,6 @@ private:
   std::vector<Vec3> wall_dv_;     // m/s, this step's velocity change from the p_b wall term
   std::vector<Vec3> still_wall_;  // m/s, zeros (diagnostic: walls still in Eq. A2)
   std::vector<Real> p_before_;    // Pa, p^(k-1) of Eq. A8a: each sweep's pressures before it (Chebyshev only)
-  bool warm_ = false;             // the current solve starts from the previous step's guess (startingPressure())
   // A method whose density-solve p_b does not vanish at p = 0 (SPH's hydrostatic constant) starts
   // such a solve from zero with the wall term alone (solve()); wall_zone_ (per particle, this
   // step) marks where that a^p reaches: a wall neighbour of i or of a fluid neighbour of i.

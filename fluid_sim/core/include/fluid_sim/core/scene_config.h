@@ -249,11 +249,11 @@ struct SolverConfig
   bool warm_start = false;                 // key: solver.warm_start
   ColdStart cold_start = ColdStart::Zero;  // without warm_start  key: solver.cold_start: zero | jacobi
   WarmStartGuess warm_start_guess = WarmStartGuess::Previous;  // key: solver.warm_start_guess
+  double omega = 0.5;                                          // relaxed Jacobi factor            key: solver.omega
   // With warm_start, the divergence solve too starts from the previous step's guess; off, it
   // starts as without warm_start (cold_start), which in the measured scenes converged in as many
   // iterations (1.00-1.02 per step) with fewer passes over the pairs.  key: solver.warm_start_divergence
   bool warm_start_divergence = false;
-  double omega = 0.5;                                          // relaxed Jacobi factor            key: solver.omega
   // Chebyshev semi-iteration over the relaxed Jacobi sweeps (Eq. A8a): rho, the assumed spectral
   // radius of one sweep (A8), in (0, 1); 0 = off, plain sweeps (the paper's). After `delay` plain
   // sweeps each update is extrapolated from the one before the last; it pays where many sweeps
