@@ -503,7 +503,17 @@ private:
     const std::size_t n = fluid_.size();
     ++pressure_passes_;
     p_over_rho2_.resize(n);
-    parallelFor(n, [&](std::size_t i) { p_over_rho2_[i] = p[i] / (fluid_.rho[i] * fluid_.rho[i]); });
+    parallelFor(n, [&](std::size_t i) {
+      const Real kappa = p[i] / (fluid_.rho[i] * fluid_.rho[i]);
+      p_over_rho2_[i] = kappa;
+#ifdef FLUID_SIM_QUAD_PAIRS
+      // kappa_i also rides in x4's padding lane, so that the four-pair loop below reads a
+      // neighbour's position and kappa in one 16-byte load instead of a second, scalar gather.
+      // The lane is free: the divergences multiply it by a padding lane of zeros (fluidDivergence)
+      // and a^p's own padding lane is thrown away.
+      x4_[i][3] = kappa;
+#endif
+    });
     a4_.resize(n);
     parallelFor(n, [&](std::size_t i) {
       const Vec3 xi = fluid_.x[i];
@@ -516,15 +526,16 @@ private:
       {
         // Four pairs at a time (FLUID_SIM_QUAD_PAIRS): m (kappa_i + kappa_j) grad_factor (x_i - x_j) per lane.
         const __m512 xi16 = _mm512_maskz_broadcast_f32x4(__mmask16(0xFFFF), _mm_load_ps(xi4.data()));
-        const __m128 ki4 = _mm_set1_ps(ki), m4 = _mm_set1_ps(mass_);
-        const float* const kappa = p_over_rho2_.data();
+        const __m512 ki16 = _mm512_set1_ps(ki), m16 = _mm512_set1_ps(mass_);
         __m512 acc = _mm512_setzero_ps();
         for (; k + 4 <= end; k += 4)
         {
           const Index* const j = ff_.index.data() + k;
-          const __m128 kj = _mm_setr_ps(kappa[j[0]], kappa[j[1]], kappa[j[2]], kappa[j[3]]);
-          const __m128 c = _mm_mul_ps(_mm_mul_ps(m4, _mm_add_ps(ki4, kj)), _mm_loadu_ps(ff_.grad_factor.data() + k));
-          acc = _mm512_fmadd_ps(spreadFour(c), _mm512_sub_ps(xi16, loadFourVec4(x4_.data(), j)), acc);
+          const __m512 xj = loadFourVec4(x4_.data(), j);                           // x_j, y_j, z_j, kappa_j per lane
+          const __m512 kj = _mm512_maskz_permute_ps(__mmask16(0xFFFF), xj, 0xFF);  // kappa_j over its lane
+          const __m512 c = _mm512_mul_ps(_mm512_mul_ps(m16, _mm512_add_ps(ki16, kj)),
+                                         spreadFour(_mm_loadu_ps(ff_.grad_factor.data() + k)));
+          acc = _mm512_fmadd_ps(c, _mm512_sub_ps(xi16, xj), acc);  // the padding lane: c (kappa_i - kappa_j), unused
         }
         _mm_store_ps(acc4.data(), _mm_sub_ps(_mm_setzero_ps(), sumLanes(acc)));
       }
@@ -747,7 +758,9 @@ private:
   double feedback_ratio_min_ = 1.0, feedback_ratio_max_ = 1.0;  // A_i with Eq. A4b over A_i without
   std::vector<float> density_residual_max_;  // per density-solve iteration, the largest |s_i - D_i| dt^2/rho0
   // m, m/s, m/s^2: x, v and a^p padded to 4 components. Before the divergence solve a4_ holds
-  // gsum_i = m sum_j grad W_ij + grad_b (kg/m^4, the extrapolations' Eq. A4b).
+  // gsum_i = m sum_j grad W_ij + grad_b (kg/m^4, the extrapolations' Eq. A4b). x4_'s padding lane
+  // is zero in the density pass and holds kappa_i = p_i/rho_i^2 of the last a^p evaluation after
+  // it (computePressureAcceleration()); v4_'s and a4_'s padding lanes are always zero.
   Vec4Array x4_, v4_, a4_;
   std::vector<Vec3> wall_dv_;     // m/s, this step's velocity change from the p_b wall term
   std::vector<Vec3> still_wall_;  // m/s, zeros (diagnostic: walls still in Eq. A2)
