@@ -25,6 +25,16 @@ void SurfacePublisher::advertise(ros::NodeHandle& nh, double spacing)
   pub_ = nh.advertise<visualization_msgs::Marker>("surface", 1);
 }
 
+void SurfacePublisher::setRate(double hz)
+{
+  std::lock_guard<std::mutex> lock(mutex_);
+  rate_ = hz;
+  // Off: the positions waiting for the surface thread are dropped, and run() checks the rate
+  // again, under this lock, before it publishes the surface it was making. Before, both came out
+  // after the switch, as late as a reconstruction on a loaded machine takes.
+  if (!(hz > 0.0)) ready_ = false;
+}
+
 void SurfacePublisher::offer(const ros::Time& stamp, const std::vector<Vec3>& positions)
 {
   const double rate = rate_;
@@ -102,7 +112,13 @@ void SurfacePublisher::run()
     marker->header.stamp = stamp;
     marker->header.frame_id = opt_.fixed_frame;
     fillSurfaceMarker(mesh, *marker);
-    pub_.publish(marker);
+    {
+      // Switched off while this surface was made (setRate()): it is not published. Under the
+      // lock, so that once setRate(0) has returned nothing more comes out.
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (!(rate_.load() > 0.0)) continue;
+      pub_.publish(marker);
+    }
     ROS_DEBUG("fluid_sim: surface of %zu particles: %zu triangles in %.1f ms", mesh.particles, mesh.triangles.size(),
               mesh.ms);
   }

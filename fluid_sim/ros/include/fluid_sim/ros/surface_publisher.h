@@ -5,7 +5,8 @@
 // it publishes; when a surface is due, they are copied and the surface thread reconstructs and
 // publishes them, so that neither the solver nor the other topics ever wait for a mesh. A surface
 // still being made when the next one is due makes that one wait in its place (the newest
-// positions win); none is made while the rate is 0 or nobody subscribes.
+// positions win); none is made while the rate is 0 or nobody subscribes, and none is published
+// after the rate was set to 0.
 
 #include <atomic>
 #include <condition_variable>
@@ -45,11 +46,10 @@ public:
   /// opt.surface_rate.
   void advertise(ros::NodeHandle& nh, double spacing);
 
-  /// Surfaces per second of the frames' stamps (Hz; 0 = off); from any thread, at once.
-  void setRate(double hz)
-  {
-    rate_ = hz;
-  }
+  /// Surfaces per second of the frames' stamps (Hz; 0 = off); from any thread, at once. Off, it
+  /// also drops positions offered and not yet taken, and a surface being made when it was
+  /// switched off is not published: nothing comes out after the call returns.
+  void setRate(double hz);
 
   /// From the publisher thread, with every frame it publishes: if a surface is due (rate > 0, a
   /// subscriber, 1 / rate or more since the stamp of the last one offered; a stamp that went back,
