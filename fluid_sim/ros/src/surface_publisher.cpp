@@ -30,8 +30,8 @@ void SurfacePublisher::setRate(double hz)
   std::lock_guard<std::mutex> lock(mutex_);
   rate_ = hz;
   // Off: the positions waiting for the surface thread are dropped, and run() checks the rate
-  // again, under this lock, before it publishes the surface it was making. Before, both came out
-  // after the switch, as late as a reconstruction on a loaded machine takes.
+  // again, under this lock, before it publishes the surface it was making, so that 0 takes effect
+  // at once and not one or two reconstructions later.
   if (!(hz > 0.0)) ready_ = false;
 }
 
