@@ -480,11 +480,12 @@ private:
   /// constant in p_b, solve()): every fluid pair's term m (kappa_i + kappa_j) grad W_ij is zero,
   /// so a^p is the wall term alone, summed over the fluid-boundary pairs only (m/s^2). The same
   /// values as computePressureAcceleration() gives for p = 0, bit for bit: its fluid sum adds
-  /// only zeros to +0. Not a pass over the fluid pairs (not counted in pressure_passes_).
+  /// only zeros to +0. Not a pass over the fluid pairs (not counted in pressure_passes_). Like a
+  /// skipped evaluation from zero (solve()), it leaves p_over_rho2_ alone: nothing reads it before
+  /// the next evaluation writes it.
   void computeWallAcceleration(const std::vector<Real>& p)
   {
     const std::size_t n = fluid_.size();
-    p_over_rho2_.assign(n, Real(0));
     a4_.resize(n);
     parallelFor(n, [&](std::size_t i) {
       Vec3 acc = Vec3::Zero();
