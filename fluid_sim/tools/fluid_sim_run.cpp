@@ -19,6 +19,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <iostream>
 #include <memory>
@@ -161,6 +162,18 @@ void removeOldFrames(const fs::path& frames_dir, const std::string& extension = 
       fs::remove(entry.path());
 }
 
+/// Removes what an earlier run left in the output directory that this run may not write again
+/// (its instruments' CSV files, its frames and surfaces, its summary), so that no file beside this
+/// run's summary.json holds another run's data. Only the runner's own file names are touched.
+void removeOldOutputs(const fs::path& out_dir)
+{
+  for (const char* name : {"stats.csv", "summary.json", "regions.csv", "probes.csv", "spill.csv", "bodies.csv",
+                           "sinks.csv", "emitters.csv"})
+    fs::remove(out_dir / name);
+  if (fs::is_directory(out_dir / "frames")) removeOldFrames(out_dir / "frames");
+  if (fs::is_directory(out_dir / "surface")) removeOldFrames(out_dir / "surface", "obj");
+}
+
 std::string vectorText(const fluid_sim::Vec3d& v)
 {
   char text[96];
@@ -260,15 +273,11 @@ int run(const Options& options)
   const fs::path frames_dir = out_dir / "frames";
   const fs::path surface_dir = out_dir / "surface";
   fs::create_directories(out_dir);
+  removeOldOutputs(out_dir);
   if (frame_interval > 0.0)
   {
     fs::create_directories(frames_dir);
-    removeOldFrames(frames_dir);
-    if (options.surface)
-    {
-      fs::create_directories(surface_dir);
-      removeOldFrames(surface_dir, "obj");
-    }
+    if (options.surface) fs::create_directories(surface_dir);
   }
   else if (options.surface)
     std::cerr << "warning: --surface writes a mesh beside each PLY frame, and output.frame_interval is 0 (no "
@@ -451,12 +460,23 @@ int main(int argc, char** argv)
   CLI::App app{"Runs a fluid_sim scene headless; writes PLY frames, stats.csv and summary.json."};
   Options options;
   app.add_option("scene", options.scene, "Scene YAML file")->required();
+  // CLI11's own number checks print their range with DBL_MAX spelled out and let NaN through.
+  const CLI::Validator finite_seconds(
+      [](std::string& text) {
+        char* end = nullptr;
+        const double v = std::strtod(text.c_str(), &end);
+        if (end == text.c_str() || *end != '\0' || !std::isfinite(v) || v < 0.0)
+          return "must be a finite time >= 0 (s), got '" + text + "'";
+        return std::string();
+      },
+      "SECONDS");
   app.add_option("--duration", options.duration, "Simulated time to run, s (default: the scene's duration)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(finite_seconds);
   app.add_option("--out", options.out, "Output directory (default: out/<scene stem>)");
   app.add_option("--set", options.overrides, "Override a scene key, e.g. --set solver.boundary_pressure=sph")
       ->allow_extra_args(false);
-  app.add_option("--threads", options.threads, "Worker threads (default: all cores)")->check(CLI::PositiveNumber);
+  app.add_option("--threads", options.threads, "Worker threads, 1 to 1024 (default: all cores)")
+      ->check(CLI::Range(1, 1024));
   app.add_flag("--surface", options.surface,
                "Also write the free surface as a triangle mesh beside each PLY frame: surface/NNNNNN.obj");
   try

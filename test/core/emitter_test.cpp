@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "fluid_sim/core/fluid_fill.h"
 #include "fluid_sim/core/simulation.h"
 
 #include "small_scene.h"
@@ -223,4 +224,153 @@ TEST(Emitters, RectangularNozzleHasItsLatticeAndRate)
   EXPECT_NEAR(t.flow_rate, 8 * 1e-4 * 0.5, 1e-12);
   while (sim.time() < 0.3) sim.step();
   EXPECT_NEAR(sim.emitterTotals()[0].volume, 8e-4 * 0.5 * 0.2, 1e-6);
+}
+
+TEST(Emitters, AStreamTooFastForTheTimeStepIsRefusedNamingItsKey)
+{
+  // 2e4 for 2e-4 m^3/s: a mistyped exponent asked for 1.6e7 m/s through 13 points (a million
+  // layers in the first step; the run hung there). Refused before the run, naming the key given.
+  SceneConfig s = dryScene();
+  s.emitters.push_back(tap(2.0e4, 1.0));
+  EXPECT_EQ(errorKey(s), "emitters[0].flow_rate");
+  SceneConfig fast = dryScene();
+  EmitterConfig e = tap(0.0, 1.0);
+  e.speed = 25.0;  // 2.5 spacings per fixed 1 ms step, stability.max_cfl is 2
+  fast.emitters.push_back(e);
+  EXPECT_EQ(errorKey(fast), "emitters[0].speed");
+  fast.emitters[0].speed = 19.0;  // 1.9 spacings a step
+  EXPECT_EQ(errorKey(fast), "<no error>");
+  // An adaptive step may go down to time_step.min: 25 m/s needs 0.8 ms, which it allows.
+  fast.emitters[0].speed = 25.0;
+  fast.time_step.adaptive = true;
+  fast.time_step.min = 1.0e-4;
+  EXPECT_EQ(errorKey(fast), "<no error>");
+  fast.time_step.min = 1.0e-3;
+  EXPECT_EQ(errorKey(fast), "emitters[0].speed");
+}
+
+TEST(Emitters, ANozzleFixedOutsideTheDomainIsRefused)
+{
+  SceneConfig s = dryScene();
+  EmitterConfig e = tap(2.0e-4, 1.0);
+  e.pose.translation = Vec3d(5, 5, 5);
+  s.emitters.push_back(e);
+  EXPECT_EQ(errorKey(s), "emitters[0].pose.xyz");
+}
+
+namespace
+{
+/// A 0.3 m square box tank 0.5 m high at spacing 2.5 cm (MLS, the default), water `depth` deep
+/// (none for 0), and an inlet of 3 cm radius set on the middle of its floor pointing up at 0.5 m/s
+/// for 0.3 s (`side`: on the middle of its x = 0 wall, 0.25 m up, pointing along +x).
+SceneConfig floorInlet(double depth, bool side = false)
+{
+  SceneConfig s = dryScene();
+  s.spacing = 0.025;
+  s.domain = {Vec3d(-0.1, -0.1, -0.1), Vec3d(0.4, 0.4, 0.6)};
+  s.solver.warm_start = false;
+  s.viscosity.model = ViscosityModel::Xsph;
+  s.viscosity.coefficient = 0.05;
+  s.viscosity.boundary = 0.05;
+  BoundaryConfig tank;
+  tank.name = "tank";
+  tank.type = ShapeType::Box;
+  tank.box = {Vec3d(0, 0, 0), Vec3d(0.3, 0.3, 0.5)};
+  tank.inside = true;
+  s.boundaries.push_back(tank);
+  if (depth > 0.0)
+  {
+    FluidBlockConfig block;
+    block.box = {Vec3d(0, 0, 0), Vec3d(0.3, 0.3, depth)};
+    s.fluid.push_back(block);
+  }
+  EmitterConfig e = tap(0.0, 0.3);
+  e.radius = 0.03;
+  e.speed = 0.5;
+  e.pose.translation = side ? Vec3d(0.0, 0.15, 0.25) : Vec3d(0.15, 0.15, 0.0);
+  e.pose.rotation = side ? Eigen::Quaterniond::FromTwoVectors(Vec3d::UnitZ(), Vec3d::UnitX())
+                         : Eigen::Quaterniond::Identity();  // the exit direction is the frame's +z
+  s.emitters.push_back(e);
+  return s;
+}
+
+struct InletRun
+{
+  std::size_t released = 0, blocked = 0;
+  double closest_to_wall = 1e9;  // m, from a released particle to the walls' layer, when released
+  double fastest = 0.0;          // m/s, over the run
+};
+
+InletRun runInlet(const SceneConfig& s)
+{
+  Simulation sim(s);
+  const std::size_t start = sim.numFluidParticles();
+  const std::vector<Vec3> walls = sim.boundaryPositions();
+  InletRun out;
+  while (sim.time() < 0.3 - 1e-9)
+  {
+    const std::size_t before = sim.numFluidParticles();
+    const StepReport rep = sim.step();
+    EXPECT_FALSE(rep.unstable) << "t = " << sim.time() << ": " << rep.reason;
+    if (rep.unstable) break;
+    for (std::size_t i = before; i < sim.numFluidParticles(); ++i)
+      for (const Vec3& w : walls)
+        out.closest_to_wall = std::min(out.closest_to_wall, double((sim.positions()[i] - w).norm()));
+    for (const Vec3& v : sim.velocities()) out.fastest = std::max(out.fastest, double(v.norm()));
+  }
+  out.released = sim.emitterTotals()[0].particles;
+  out.blocked = sim.emitterTotals()[0].blocked;
+  EXPECT_EQ(sim.numFluidParticles(), start + out.released);
+  return out;
+}
+}  // namespace
+
+TEST(Emitters, ANozzleOnADryTanksWallReleasesWhereTheFillWould)
+{
+  // Its points lie on the wall's surface, half a spacing from the wall's particle layer, where
+  // the fill keeps water one spacing away. The stream's particles now start half a spacing in
+  // front of the opening (the middle of the slab of water that left in their time), no nearer a
+  // wall's layer than the fill's trim distance. 5 points, a layer every 0.05 s: 30 in 0.3 s.
+  const InletRun r = runInlet(floorInlet(0.0, true));
+  EXPECT_EQ(r.released, 30u);
+  EXPECT_EQ(r.blocked, 0u);
+  EXPECT_GE(r.closest_to_wall, trimDistance(0.025));
+  EXPECT_LT(r.fastest, 0.5 + 9.81 * 0.3 + 0.05);  // its exit speed and the fall, no burst
+}
+
+TEST(Emitters, AnInletUnderStillWaterReleasesOnlyWhereThereIsRoom)
+{
+  // The same inlet under 0.2 m of water at rest: the water's first layer sits where the stream's
+  // would, so there is no room. It released into it before (half a spacing from water was enough)
+  // and the overlap shot water off at 4.7 m/s; set on the floor's surface, it blew the MLS solve
+  // up 50 steps in. Now it releases nothing, and the water moves as in the tank without it.
+  const InletRun r = runInlet(floorInlet(0.2));
+  EXPECT_EQ(r.released, 0u);
+  EXPECT_GT(r.blocked, 0u);
+  SceneConfig plain = floorInlet(0.2);
+  plain.emitters.clear();
+  Simulation sim(plain);
+  double fastest = 0.0;  // m/s
+  while (sim.time() < 0.3 - 1e-9)
+  {
+    sim.step();
+    for (const Vec3& v : sim.velocities()) fastest = std::max(fastest, double(v.norm()));
+  }
+  EXPECT_DOUBLE_EQ(r.fastest, fastest);
+}
+
+TEST(Emitters, ANozzleInsideASolidReleasesNothing)
+{
+  SceneConfig s = dryScene();
+  BoundaryConfig block;
+  block.name = "block";
+  block.type = ShapeType::Box;
+  block.box = {Vec3d(-0.1, -0.1, 0.2), Vec3d(0.1, 0.1, 0.4)};
+  s.boundaries.push_back(block);
+  s.emitters.push_back(tap(2.0e-4, 0.2));  // at (0, 0, 0.3), in the block's middle
+  Simulation sim(s);
+  for (int k = 0; k < 250; ++k) sim.step();
+  EXPECT_EQ(sim.emitterTotals()[0].particles, 0u);
+  EXPECT_GT(sim.emitterTotals()[0].blocked, 0u);
+  EXPECT_EQ(sim.numFluidParticles(), 0u);
 }

@@ -321,6 +321,52 @@ TEST(Runner, InstrumentsSpillOutsideRegionsAndNoFilesWithoutThem)
   EXPECT_FALSE(readJson(dir.file("plain/summary.json")).contains("spill"));
 }
 
+TEST(Runner, AReusedOutputDirectoryHoldsOnlyTheNewRunsFiles)
+{
+  // A run with instruments, sinks, emitters and surfaces, then a plain run into the same folder:
+  // a script reading regions.csv beside the new summary.json must not read the first run's.
+  test::TempDir dir;
+  dir.write("busy.yaml", std::string(kTinyScene) +
+                             "regions: [{name: zone, sphere: {center: [0.3, 0.3, 0.1], radius: 0.1}}]\n"
+                             "probes: [{name: p, position: [0.15, 0.15, 0.1]}]\n"
+                             "spill: {below: 0.6}\n"
+                             "sinks: [{name: drain, sphere: {center: [0.3, 0.1, 0.05], radius: 0.04}}]\n"
+                             "emitters: [{name: tap, circle: {radius: 0.02}, pose: {xyz: [0.2, 0.2, 0.4]}, "
+                             "direction: [0, 0, -1], speed: 0.5}]\n");
+  RunResult r = run(dir, "busy.yaml --out out --threads 1 --duration 0.1 --surface");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  for (const char* file : {"regions.csv", "probes.csv", "spill.csv", "sinks.csv", "emitters.csv", "surface/000002.obj"})
+    ASSERT_TRUE(fs::exists(dir.path() / "out" / file)) << file;
+  dir.write("plain.yaml", kTinyScene);
+  r = run(dir, "plain.yaml --out out --threads 1 --duration 0.02 --set output.frame_interval=0");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  for (const char* file : {"regions.csv", "probes.csv", "spill.csv", "sinks.csv", "emitters.csv", "frames/000001.ply",
+                           "surface/000000.obj", "surface/000002.obj"})
+    EXPECT_FALSE(fs::exists(dir.path() / "out" / file)) << file;
+  EXPECT_TRUE(fs::exists(dir.path() / "out" / "summary.json"));
+  EXPECT_TRUE(fs::exists(dir.path() / "out" / "stats.csv"));
+  // A scene that cannot be built leaves the earlier run's output as it was.
+  dir.write("broken.yaml", std::string(kTinyScene) + "spacing_typo: 1\n");
+  r = run(dir, "broken.yaml --out out --threads 1");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_TRUE(fs::exists(dir.path() / "out" / "summary.json"));
+}
+
+TEST(Runner, BadOptionValuesExitTwoNamingTheOption)
+{
+  test::TempDir dir;
+  dir.write("tiny.yaml", kTinyScene);
+  for (const char* args : {"--duration nan", "--duration -1", "--duration inf", "--threads 0", "--threads 5000"})
+  {
+    const RunResult r = run(dir, std::string("tiny.yaml --out o ") + args);
+    EXPECT_EQ(r.exit_code, 2) << args;
+    const std::string option = std::string(args).substr(0, std::string(args).find(' '));
+    EXPECT_NE(r.err.find(option + ":"), std::string::npos) << args << ": " << r.err;
+    EXPECT_EQ(r.err.find("179769"), std::string::npos) << r.err;  // no DBL_MAX spelled out
+    EXPECT_FALSE(fs::exists(dir.path() / "o")) << args;
+  }
+}
+
 TEST(Runner, RegionOfAnUnknownBodyExitsTwoNamingIt)
 {
   test::TempDir dir;

@@ -237,6 +237,16 @@ TEST(SceneLoader, DefaultsForAbsentKeys)
   EXPECT_DOUBLE_EQ(s.duration, defaults.duration);
 }
 
+TEST(SceneLoader, AProbeOutsideTheDomainIsWarnedAbout)
+{
+  const SceneConfig inside = parseScene(kBase + "probes: [{name: p, position: [0.5, 0.5, 0.2]}]\n", "scene.yaml");
+  EXPECT_TRUE(inside.warnings.empty());
+  const SceneConfig outside = parseScene(kBase + "probes: [{name: p, position: [9, 9, 9]}]\n", "scene.yaml");
+  ASSERT_EQ(outside.warnings.size(), 1u);
+  EXPECT_NE(outside.warnings[0].find("probes[0] 'p'"), std::string::npos) << outside.warnings[0];
+  EXPECT_NE(outside.warnings[0].find("outside the domain"), std::string::npos) << outside.warnings[0];
+}
+
 TEST(SceneLoader, LoadsFileAndNamesItInErrors)
 {
   test::TempDir dir;

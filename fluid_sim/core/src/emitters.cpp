@@ -6,12 +6,19 @@
 #include <cmath>
 
 #include "fluid_sim/core/bodies.h"
+#include "fluid_sim/core/boundary_sampling.h"
+#include "fluid_sim/core/fluid_fill.h"
 #include "fluid_sim/core/fluid_particles.h"
+#include "fluid_sim/core/kernel.h"
 
 namespace fluid_sim
 {
 namespace
 {
+/// How far above rest density (relative) the water and walls around a nozzle point may put a
+/// particle released there (the initial fill's tolerance, fill.relax_tolerance's default).
+constexpr double kRoomTolerance = 0.02;
+
 /// The opening's lattice (nozzle frame, z = 0, m): points one spacing apart, centred on the
 /// origin. A circle keeps the points within its radius, a rectangle has round(w/s) x round(h/s)
 /// of them; an opening narrower than a spacing still has its centre point.
@@ -38,24 +45,55 @@ std::vector<Vec3d> nozzleLattice(const EmitterConfig& e, double s)
 }  // namespace
 
 Emitters::Emitters(const SceneConfig& scene, const BodySet& bodies)
-    : spacing_(scene.spacing), rest_density_(Real(scene.rest_density)), max_fluid_particles_(scene.max_fluid_particles)
+    : spacing_(scene.spacing)
+    , rest_density_(Real(scene.rest_density))
+    , max_fluid_particles_(scene.max_fluid_particles)
+    , domain_min_(scene.domain.min)
+    , domain_max_(scene.domain.max)
 {
   const double s = scene.spacing;
+  // The shortest step the scene allows (s): the fixed one, or the adaptive step's lower bound.
+  const double dt_floor = scene.time_step.adaptive ? scene.time_step.min : scene.time_step.fixed;
   for (std::size_t i = 0; i < scene.emitters.size(); ++i)
   {
     const EmitterConfig& e = scene.emitters[i];
+    const std::string key = "emitters[" + std::to_string(i) + "]";
     Nozzle nz;
     nz.config = e;
     nz.points = nozzleLattice(e, s);
     const double n = double(nz.points.size());
     // Flow rate Q = n s^2 v: each layer of n particles stands for n s^3 and one leaves every s / v.
     nz.speed = e.speed > 0.0 ? e.speed : e.flow_rate / (n * s * s);  // m/s
+    // A stream that moves more than stability.max_cfl spacings in the shortest step the scene
+    // allows trips the stability check with its first layer (and a mistyped exponent in the flow
+    // rate would ask for millions of layers in one step): refused before the run starts.
+    const double fastest = scene.stability.max_cfl * s / dt_floor;  // m/s
+    if (!(nz.speed <= fastest))
+    {
+      const bool given_rate = !(e.speed > 0.0);
+      throw ConfigError(key + (given_rate ? ".flow_rate" : ".speed"),
+                        (given_rate ? "flow rate " + numberText(e.flow_rate) + " m^3/s through " +
+                                          std::to_string(nz.points.size()) + " nozzle point(s) gives an exit speed of "
+                                    : std::string("exit speed ")) +
+                            numberText(nz.speed) + " m/s, faster than the " + numberText(fastest) +
+                            " m/s that stability.max_cfl (" + numberText(scene.stability.max_cfl) +
+                            ") allows at the scene's shortest time step (" + numberText(dt_floor) +
+                            " s) and spacing: lower it, or the time step");
+    }
+    // A nozzle fixed in the world opens inside the domain (as a fluid block must lie in it); one
+    // carried by a body or a tf frame may leave it, and its points outside are then left out.
+    if (e.body.empty() && e.frame.empty())
+    {
+      const Vec3d& c = e.pose.translation;
+      if ((c.array() < scene.domain.min.array()).any() || (c.array() > scene.domain.max.array()).any())
+        throw ConfigError(key + ".pose.xyz", "the nozzle at (" + numberText(c.x()) + ", " + numberText(c.y()) + ", " +
+                                                 numberText(c.z()) + ") lies outside the domain");
+    }
     if (!e.body.empty())
     {
       for (std::size_t b = 0; b < bodies.size(); ++b)
         if (bodies[b].config.name == e.body) nz.body = long(b);
-      if (nz.body < 0)
-        throw ConfigError("emitters[" + std::to_string(i) + "].body", "no boundary body named '" + e.body + "'");
+      if (nz.body < 0) throw ConfigError(key + ".body", "no boundary body named '" + e.body + "'");
     }
     if (e.max_particles > 0)
       nz.budget = e.max_particles;
@@ -137,26 +175,69 @@ std::size_t Emitters::emit(double t, double dt, FluidParticles& fluid, const Bod
     const auto carried = [&](const Vec3d& p) -> Vec3d {
       return body ? Vec3d(body->v_origin + body->omega.cross(p - body->pose.translation)) : Vec3d::Zero();
     };
-    // Water and walls near the opening: a point closer than half a spacing to either is left
-    // out (a release into them would overlap and splash). Candidates are gathered once per step
-    // from a sphere that holds every layer released in it.
+    // Water, walls and solids near the opening. A point is left out where a particle released
+    // there would overlap what is already there and be shot off (a splash, or with MLS a blow-up
+    // at a wall): where the water and walls in its kernel's reach would put it more than
+    // kRoomTolerance above rest density (Eq. A1 with the wall term of Eq. A3's volumes: in water
+    // at rest only a vacancy has room, as "room" means for the fill); closer than half a spacing
+    // to water; as close to a wall's particle layer as the initial fill may not come
+    // (trimDistance(): the layer lies half a spacing inside the wall, the first water half a
+    // spacing in front of it), or 0.75 spacings to an open shell's layer (on its surface); inside a
+    // solid; outside the domain. Candidates are gathered once per step from a sphere that holds
+    // every layer released in it and its kernel's reach.
     double extent = 0.0;  // m, the opening's radius
     for (const Vec3d& q : nz.points) extent = std::max(extent, q.norm());
-    const double reach = extent + (nz.moved - double(nz.layers) * s) + 2.0 * s;  // m
-    const double clear2 = 0.25 * s * s;                                          // m^2, (s/2)^2
-    std::vector<Vec3d> near;
-    const auto gather = [&](const std::vector<Vec3>& xs) {
-      for (const Vec3& x : xs)
-      {
-        const Vec3d xd = x.cast<double>();
-        if ((xd - pose.translation).squaredNorm() < reach * reach) near.push_back(xd);
-      }
+    const double reach = extent + (nz.moved - double(nz.layers) * s) + 3.0 * s;  // m
+    const double water2 = 0.25 * s * s;                                          // m^2, (s/2)^2
+    const double wall2 = trimDistance(s) * trimDistance(s);                      // m^2
+    const double shell2 = 0.75 * 0.75 * s * s;                                   // m^2
+    const double mass = double(rest_density_) * s * s * s;                       // kg, of one particle
+    struct Near
+    {
+      Vec3d x;      // m, world
+      double mass;  // kg: a fluid particle's, or a wall particle's rho0 V_b
     };
-    gather(fluid.x);
-    gather(bodies.x);
+    std::vector<Near> water, walls, shells;
+    const auto gather = [&](const Vec3& x, double m, std::vector<Near>& into) {
+      const Vec3d xd = x.cast<double>();
+      if ((xd - pose.translation).squaredNorm() < reach * reach) into.push_back({xd, m});
+    };
+    for (const Vec3& x : fluid.x) gather(x, mass, water);
+    std::vector<const Body*> solids;  // solid bodies that may hold part of the opening's stream
+    for (const Body& b : bodies.bodies())
+    {
+      for (std::size_t k = b.offset; k < b.offset + b.local.size(); ++k)
+        gather(bodies.x[k], double(rest_density_) * double(bodies.volume[k]), b.openShell() ? shells : walls);
+      if (!b.config.inside && !b.openShell() && (b.pose.translation - pose.translation).norm() < b.reach + reach)
+        solids.push_back(&b);
+    }
+    const CubicKernel kernel(Real(2.0 * s));
+    double density = 0.0;  // kg/m^3 at the point last tested
+    const auto crowded = [&](const std::vector<Near>& xs, const Vec3d& p, double r2) {
+      bool close = false;
+      for (const Near& n : xs)
+      {
+        const double d2 = (n.x - p).squaredNorm();
+        close = close || d2 < r2;
+        density += n.mass * double(kernel.W(Real(std::sqrt(d2))));
+      }
+      return close;
+    };
+    const auto blocked = [&](const Vec3d& p) {
+      if ((p.array() < domain_min_.array()).any() || (p.array() > domain_max_.array()).any()) return true;
+      density = mass * double(kernel.W0());
+      const bool close = crowded(water, p, water2) | crowded(walls, p, wall2) | crowded(shells, p, shell2);
+      if (close || density > (1.0 + kRoomTolerance) * double(rest_density_)) return true;
+      for (const Body* b : solids)
+        if (insideShape(b->config, b->pose.rotation.conjugate() * (p - b->pose.translation))) return true;
+      return false;
+    };
 
     // Layer k (counted from 1) left when the stream had moved k spacings; it has since moved the
-    // rest, nz.moved - k s, along the axis.
+    // rest, nz.moved - k s, along the axis. Its particles stand for the slab of water that passed
+    // the opening in its time, one spacing thick: they sit at the slab's middle, half a spacing
+    // ahead of where its back has got to (as a fluid block's first lattice layer sits half a
+    // spacing from the wall it touches), so a nozzle set on a wall releases where the fill would.
     const auto release = [&](std::size_t count, double offset) {
       // A partial layer takes its points spread evenly over the opening (every stride-th).
       const double stride = double(nz.points.size()) / double(count);
@@ -168,22 +249,15 @@ std::size_t Emitters::emit(double t, double dt, FluidParticles& fluid, const Bod
           return;
         }
         const Vec3d& q = nz.points[std::min(nz.points.size() - 1, std::size_t(double(c) * stride))];
-        const Vec3d p = pose.apply(q) + offset * axis;  // m, world
-        bool clear = true;
-        for (const Vec3d& x : near)
-          if ((x - p).squaredNorm() < clear2)
-          {
-            clear = false;
-            break;
-          }
-        if (!clear)
+        const Vec3d p = pose.apply(q) + (offset + 0.5 * s) * axis;  // m, world
+        if (blocked(p))
         {
           ++total.blocked;
           continue;
         }
         const Vec3d v = nz.speed * axis + carried(p);  // m/s
         fluid.add(p.cast<Real>(), v.cast<Real>(), rest_density_);
-        near.push_back(p);
+        water.push_back({p, mass});
         ++total.particles;
         ++added;
       }

@@ -53,7 +53,7 @@ private:
 
 bool isOpenShell(const Body& body)
 {
-  return body.config.type == ShapeType::Mesh && !body.config.mesh_closed;
+  return body.openShell();
 }
 
 bool blockedByBody(const Vec3d& pos, const BodySet& bodies, const ProximityIndex& open_shells)

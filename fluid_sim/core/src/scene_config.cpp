@@ -80,6 +80,13 @@ const char* toString(ViscosityModel model)
   return "?";
 }
 
+std::string numberText(double v)
+{
+  std::ostringstream os;
+  os << v;
+  return os.str();
+}
+
 namespace
 {
 constexpr double kMinTimeStep = 1e-7;  // s
@@ -88,9 +95,7 @@ constexpr int kMaxSolverIterations = 10000;
 
 std::string str(double v)
 {
-  std::ostringstream os;
-  os << v;
-  return os.str();
+  return numberText(v);
 }
 
 void requireFinite(const Vec3d& v, const std::string& key)

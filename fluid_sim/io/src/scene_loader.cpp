@@ -852,6 +852,15 @@ SceneConfig readScene(const YAML::Node& root, LoadContext& ctx)
   if (auto e = r.get("sinks")) forEachItem(*e, [&](const Entry& item) { s.sinks.push_back(readRegion(item)); });
   if (auto e = r.get("emitters")) forEachItem(*e, [&](const Entry& item) { s.emitters.push_back(readEmitter(item)); });
   r.finish();
+  // A probe outside the domain is legal but can only ever read dry: most likely a typo.
+  for (std::size_t i = 0; i < s.probes.size(); ++i)
+  {
+    const Vec3d& p = s.probes[i].position;
+    if ((p.array() < s.domain.min.array()).any() || (p.array() > s.domain.max.array()).any())
+      s.warnings.push_back("probes[" + std::to_string(i) + "] '" + s.probes[i].name + "': position (" +
+                           numberText(p.x()) + ", " + numberText(p.y()) + ", " + numberText(p.z()) +
+                           ") lies outside the domain, where there is never water: it will read dry");
+  }
   return s;
 }
 

@@ -56,6 +56,11 @@ struct Body
   {
     return pose.apply(com_local);
   }
+  /// An open mesh (a cup, a paddle): a shell with no inside, its particle layer on the surface.
+  bool openShell() const
+  {
+    return config.type == ShapeType::Mesh && !config.mesh_closed;
+  }
   /// Inverse inertia in world axes, 1/(kg m^2).
   Mat3d inverseInertiaWorld() const
   {

@@ -22,7 +22,7 @@ struct EmitterTotal
 {
   std::string name;
   std::size_t particles = 0;    // released
-  std::size_t blocked = 0;      // lattice points left out: water or a wall was closer than half a spacing
+  std::size_t blocked = 0;      // lattice points left out: too close to water or a wall, in a solid, outside the domain
   double volume = 0.0;          // m^3, particles times spacing^3 (the volume each stands for)
   double mass = 0.0;            // kg
   double flow_rate = 0.0;       // m^3/s, the nozzle's: points x spacing^2 x exit speed
@@ -35,7 +35,9 @@ class Emitters
 {
 public:
   /// Lays out each nozzle's lattice and resolves its body. Throws ConfigError naming
-  /// emitters[i].body for a body that is not in `bodies`.
+  /// emitters[i].body for a body that is not in `bodies`, emitters[i].speed or .flow_rate for an
+  /// exit speed above stability.max_cfl spacings per shortest time step, and emitters[i].pose.xyz
+  /// for a nozzle fixed in the world outside the domain.
   Emitters(const SceneConfig& scene, const BodySet& bodies);
 
   /// Particles the emitters will add at most where that is known beforehand (a duration or a
@@ -79,6 +81,7 @@ private:
   double spacing_;     // m
   Real rest_density_;  // kg/m^3
   std::size_t max_fluid_particles_;
+  Vec3d domain_min_, domain_max_;  // m, the scene's domain: points outside it are left out
   std::vector<Nozzle> nozzles_;
   std::vector<EmitterTotal> totals_;
 };

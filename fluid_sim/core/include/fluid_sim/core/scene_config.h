@@ -230,6 +230,9 @@ enum class ViscosityModel
 };
 const char* toString(ViscosityModel model);
 
+/// A number as error messages print it (the stream's default: up to 6 significant digits).
+std::string numberText(double v);
+
 struct ViscosityConfig
 {
   ViscosityModel model = ViscosityModel::None;  // key: viscosity.model: none | artificial | xsph
