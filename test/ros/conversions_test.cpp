@@ -362,6 +362,49 @@ TEST(NodeParameters, ReconfigureRefusesATinyRealTimeFactorAndNaN)
   EXPECT_EQ(fine.real_time_factor, 0.5);
 }
 
+TEST(NodeParameters, ReconfigureRefusesUnknownNamesAndSolverSettingsTheSceneRefuses)
+{
+  SceneConfig scene;
+  FluidBlockConfig block;
+  block.box = {Vec3d(0.1, 0.1, 0.1), Vec3d(0.3, 0.3, 0.3)};
+  scene.fluid.push_back(block);
+  fluid_sim::FluidSimConfig current = toReconfigure(scene.solver, scene.viscosity);
+  current.real_time_factor = 1.0;
+  current.publish_rate = 30.0;
+  current.max_points = 0;
+  current.surface_rate = 0.0;
+  fluid_sim::FluidSimConfig names = current;
+  names.warm_start_guess = "bogus";
+  names.viscosity_model = "honey";
+  std::vector<std::string> warnings = checkReconfigure(names, current, &scene);
+  EXPECT_EQ(names.warm_start_guess, current.warm_start_guess);
+  EXPECT_EQ(names.viscosity_model, current.viscosity_model);
+  ASSERT_EQ(warnings.size(), 2u);
+  EXPECT_NE(warnings[0].find("warm_start_guess = 'bogus' refused"), std::string::npos) << warnings[0];
+  EXPECT_NE(warnings[1].find("viscosity_model = 'honey' refused (must be one of none, artificial, xsph)"),
+            std::string::npos)
+      << warnings[1];
+
+  fluid_sim::FluidSimConfig crossed = current;
+  crossed.min_iterations = 50;
+  crossed.max_iterations = 10;
+  crossed.density_error = 0.0005;  // fine alone, kept back with the rest of the request's solver settings
+  warnings = checkReconfigure(crossed, current, &scene);
+  ASSERT_EQ(warnings.size(), 1u);
+  EXPECT_NE(warnings[0].find("solver settings refused"), std::string::npos) << warnings[0];
+  EXPECT_NE(warnings[0].find("min_iterations"), std::string::npos) << warnings[0];
+  EXPECT_EQ(crossed.min_iterations, current.min_iterations);
+  EXPECT_EQ(crossed.max_iterations, current.max_iterations);
+  EXPECT_EQ(crossed.density_error, current.density_error);
+
+  fluid_sim::FluidSimConfig fine = current;
+  fine.viscosity_model = "xsph";
+  fine.viscosity_coefficient = 0.05;
+  fine.min_iterations = 4;
+  EXPECT_TRUE(checkReconfigure(fine, current, &scene).empty());
+  EXPECT_EQ(fine.min_iterations, 4);
+}
+
 TEST(ThreadGuard, AnExceptionIsCaughtNamedAndReported)
 {
   std::string reported;

@@ -474,10 +474,36 @@ TEST(Tank, PauseStepAndResetDoWhatTheySay)
   ASSERT_TRUE(step.response.success) << step.response.message;
   EXPECT_GT(step.response.sim_time, t0 + 5 * 1.0e-4 - 1e-12);
   EXPECT_LE(step.response.sim_time, t0 + 5 * 0.004 + 1e-12);
-  const double t1 = step.response.sim_time;
+  double t1 = step.response.sim_time;
   step.request.steps = 0;
   ASSERT_TRUE(ros::service::call("/fluid_sim/step", step));
   EXPECT_FALSE(step.response.success);
+
+  // A mistyped N (a million steps, hours here): a resume ends it, the call says how far it got,
+  // and nothing of it is left to run once paused again.
+  fluid_msgs::StepSimulation many;
+  many.request.steps = 1000000;
+  bool many_called = false;
+  std::thread caller([&] { many_called = ros::service::call("/fluid_sim/step", many); });
+  ros::WallDuration(1.0).sleep();
+  pause.request.data = false;
+  ASSERT_TRUE(ros::service::call("/fluid_sim/pause", pause));
+  caller.join();
+  ASSERT_TRUE(many_called);
+  EXPECT_FALSE(many.response.success);
+  EXPECT_NE(many.response.message.find("interrupted after"), std::string::npos) << many.response.message;
+  EXPECT_NE(many.response.message.find("of 1000000 steps"), std::string::npos) << many.response.message;
+  pause.request.data = true;
+  ASSERT_TRUE(ros::service::call("/fluid_sim/pause", pause));
+  stats = waitFor<fluid_msgs::SolverStats>("/fluid_sim/stats", 5.0);
+  ASSERT_TRUE(stats);
+  const double t_paused = stats->sim_time;
+  ros::WallDuration(1.0).sleep();
+  stats = waitFor<fluid_msgs::SolverStats>("/fluid_sim/stats", 5.0);
+  ASSERT_TRUE(stats);
+  EXPECT_TRUE(stats->paused);
+  EXPECT_DOUBLE_EQ(stats->sim_time, t_paused) << "steps of the interrupted call ran on";
+  t1 = stats->sim_time;
 
   // Reset: back to t = 0 with the initial particles; still paused.
   std_srvs::Trigger reset;
@@ -530,10 +556,12 @@ TEST(Pusher, MovingALinkThroughTfMovesItsParticlesAndItsWrench)
         for (const auto& w : msg->wrenches)
           if (w.link == "pusher") force_z.emplace_back(msg->header.stamp.toSec(), w.wrench.force.z);
       });
+  std::vector<double> boundary_stamps;  // s, of every boundary cloud received (under m)
   auto bsub = nh.subscribe<sensor_msgs::PointCloud2>("/fluid_sim/boundary_particles", 5,
                                                      [&](const sensor_msgs::PointCloud2::ConstPtr& c) {
                                                        std::lock_guard<std::mutex> lock(m);
                                                        boundary = c;
+                                                       boundary_stamps.push_back(c->header.stamp.toSec());
                                                      });
   std::vector<std::pair<double, double>> rms_speed;  // (stamp, m/s) of the water
   auto psub = nh.subscribe<sensor_msgs::PointCloud2>(
@@ -650,13 +678,21 @@ TEST(Pusher, MovingALinkThroughTfMovesItsParticlesAndItsWrench)
   {
     {
       std::lock_guard<std::mutex> lock(m);
-      if (last_stamp >= hold_start + hold && boundary && boundary->header.stamp.toSec() >= hold_start + hold) break;
+      if (last_stamp >= hold_start + hold && boundary && boundary->header.stamp.toSec() >= hold_start) break;
     }
     advance(z_low);
   }
   ASSERT_TRUE(wallLeft()) << "the node fell behind: newest frame at " << last_stamp - t_start << " s, clock at "
                           << now - t_start << " s";
   EXPECT_NEAR(pusherMeanZ(), z_low, 0.01) << "boundary particles did not follow tf";
+  {
+    // Latched and sent again only while a body moves: none while the link is held still (from a
+    // frame after the stop on; tf keeps posing it every step).
+    std::lock_guard<std::mutex> lock(m);
+    std::size_t while_still = 0;
+    for (double stamp : boundary_stamps) while_still += stamp > hold_start + 0.2 ? 1 : 0;
+    EXPECT_EQ(while_still, 0u) << "boundary clouds sent while the link was held still";
+  }
 
   std::lock_guard<std::mutex> lock(m);
   double sum = 0;
@@ -854,12 +890,26 @@ TEST(SimTime, SimulatedTimeFollowsClockNotWallTime)
     std::lock_guard<std::mutex> lock(m);
     caught_up = last.header.stamp.toSec() > target - 0.5;
   }
+  double sim_before_jump;
+  {
+    std::lock_guard<std::mutex> lock(m);
+    EXPECT_TRUE(caught_up) << "simulated time did not follow /clock: stamp " << last.header.stamp.toSec()
+                           << " s, clock " << target << " s";
+    // Stamps are the simulated instant on the /clock time line, never ahead of it.
+    EXPECT_GT(last.header.stamp.toSec(), 1000.0);
+    EXPECT_LT(worst_lead, 1e-6) << "a stamp was ahead of /clock by " << worst_lead << " s";
+    sim_before_jump = last.sim_time;
+  }
+
+  // 4. The clock jumps back by 10 s (a bag played again with --clock): the node carries on from
+  //    the new time at once. It used to wait for the clock to come round to where it had been (10
+  //    s of clock here, silently).
+  const double back_to = target - 10.0;
+  publishClock(back_to);
+  EXPECT_TRUE(advanceUntil([&] { return last.sim_time > sim_before_jump + 0.2 || clock_now > back_to + 3.0; }, 100.0));
   std::lock_guard<std::mutex> lock(m);
-  EXPECT_TRUE(caught_up) << "simulated time did not follow /clock: stamp " << last.header.stamp.toSec() << " s, clock "
-                         << target << " s";
-  // Stamps are the simulated instant on the /clock time line, never ahead of it.
-  EXPECT_GT(last.header.stamp.toSec(), 1000.0);
-  EXPECT_LT(worst_lead, 1e-6) << "a stamp was ahead of /clock by " << worst_lead << " s";
+  EXPECT_GT(last.sim_time, sim_before_jump + 0.2)
+      << "stalled after /clock jumped back: clock " << clock_now << " s, simulated " << last.sim_time << " s";
 }
 
 // ------------------------------------------------------------------------------ surface.test
@@ -1216,8 +1266,39 @@ TEST(Errors, TinyRealTimeFactorFromReconfigureIsRefusedNotACrash)
     advanced = later && later->sim_time > t0 + 0.05;
   }
   EXPECT_TRUE(advanced) << "it should still run, at real-time factor 1:\n" << readAll(p.log);
+  // An enum's name that the .cfg does not offer (the server itself passes any string), and
+  // solver settings the scene's checks refuse (min above max): the server reports what is kept.
+  int min_kept = -1, max_kept = -1;
+  for (const auto& i : srv.response.config.ints)
+  {
+    if (i.name == "min_iterations") min_kept = i.value;
+    if (i.name == "max_iterations") max_kept = i.value;
+  }
+  ASSERT_GT(min_kept, 0);
+  dynamic_reconfigure::Reconfigure bad;
+  dynamic_reconfigure::StrParameter guess;
+  guess.name = "warm_start_guess";
+  guess.value = "bogus";
+  bad.request.config.strs.push_back(guess);
+  dynamic_reconfigure::IntParameter lo, hi;
+  lo.name = "min_iterations";
+  lo.value = 50;
+  hi.name = "max_iterations";
+  hi.value = 10;
+  bad.request.config.ints = {lo, hi};
+  ASSERT_TRUE(ros::service::call("/tiny_rtf/tiny_rtf/set_parameters", bad)) << readAll(p.log);
+  for (const auto& str : bad.response.config.strs)
+    if (str.name == "warm_start_guess") EXPECT_NE(str.value, "bogus");
+  for (const auto& i : bad.response.config.ints)
+  {
+    if (i.name == "min_iterations") EXPECT_EQ(i.value, min_kept);
+    if (i.name == "max_iterations") EXPECT_EQ(i.value, max_kept);
+  }
+  ros::WallDuration(0.5).sleep();
   const std::string out = readAll(p.log);
   EXPECT_NE(out.find("real_time_factor = 1e-12 refused"), std::string::npos) << out;
+  EXPECT_NE(out.find("warm_start_guess = 'bogus' refused"), std::string::npos) << out;
+  EXPECT_NE(out.find("solver settings refused"), std::string::npos) << out;
   kill(p.pid, SIGINT);
   EXPECT_EQ(runToEnd(p, 20.0), 0) << readAll(p.log);
 }

@@ -19,6 +19,7 @@
 #include "fluid_sim/io/scene_loader.h"
 #include "fluid_sim/io/urdf_loader.h"
 #include "fluid_sim/ros/fluid_sim_node.h"
+#include "fluid_sim/ros/messages.h"
 #include "fluid_sim/ros/param_yaml.h"
 
 namespace fluid_sim
@@ -80,7 +81,7 @@ void checkNodeOptions(const NodeOptions& opt, const std::string& ns)
 }
 
 std::vector<std::string> checkReconfigure(fluid_sim::FluidSimConfig& requested,
-                                          const fluid_sim::FluidSimConfig& current)
+                                          const fluid_sim::FluidSimConfig& current, const SceneConfig* scene)
 {
   std::vector<std::string> warnings;
   auto refuse = [&](const std::string& key, double value, const std::string& why, double kept) {
@@ -120,6 +121,44 @@ std::vector<std::string> checkReconfigure(fluid_sim::FluidSimConfig& requested,
   finite("divergence_error", requested.divergence_error, current.divergence_error);
   finite("viscosity_coefficient", requested.viscosity_coefficient, current.viscosity_coefficient);
   finite("boundary_viscosity", requested.boundary_viscosity, current.boundary_viscosity);
+  // The .cfg declares these as enums, but the server passes any string through.
+  auto oneOf = [&](const std::string& key, std::string& value, std::initializer_list<const char*> names,
+                   const std::string& kept) {
+    for (const char* name : names)
+      if (value == name) return;
+    std::string list;
+    for (const char* name : names) list += std::string(list.empty() ? "" : ", ") + name;
+    warnings.push_back("dynamic_reconfigure: " + key + " = '" + value + "' refused (must be one of " + list +
+                       "); keeping '" + kept + "'");
+    value = kept;
+  };
+  oneOf("warm_start_guess", requested.warm_start_guess, {"previous", "damped"}, current.warm_start_guess);
+  oneOf("viscosity_model", requested.viscosity_model, {"none", "artificial", "xsph"}, current.viscosity_model);
+  if (scene)
+  {
+    // What the solver loop will hand Simulation::updateSettings(), checked here, before the server
+    // reports the request back: a refusal there would come after the server had reported it.
+    SceneConfig next = *scene;
+    fromReconfigure(requested, next.solver, next.viscosity);
+    try
+    {
+      validate(next);
+    }
+    catch (const ConfigError& e)
+    {
+      warnings.push_back(std::string("dynamic_reconfigure: solver settings refused (") + e.what() +
+                         "); keeping the previous ones");
+      requested.density_error = current.density_error;
+      requested.divergence_error = current.divergence_error;
+      requested.min_iterations = current.min_iterations;
+      requested.max_iterations = current.max_iterations;
+      requested.warm_start = current.warm_start;
+      requested.warm_start_guess = current.warm_start_guess;
+      requested.viscosity_model = current.viscosity_model;
+      requested.viscosity_coefficient = current.viscosity_coefficient;
+      requested.boundary_viscosity = current.boundary_viscosity;
+    }
+  }
   return warnings;
 }
 

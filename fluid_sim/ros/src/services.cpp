@@ -27,6 +27,7 @@ void Services::advertise(ros::NodeHandle& nh, ros::NodeHandle& pnh, const NodeOp
   cfg.surface_rate = opt.surface_rate;
   fillReconfigureGroups(cfg);
   current_ = cfg;
+  scene_ = s;
   reconfigure_->updateConfig(cfg);
   reconfigure_->setCallback([this](fluid_sim::FluidSimConfig& c, uint32_t) { onReconfigure(c); });
   std::lock_guard<std::mutex> lock(names_mutex_);
@@ -74,7 +75,7 @@ bool Services::onStep(fluid_msgs::StepSimulation::Request& req, fluid_msgs::Step
 
 void Services::onReconfigure(fluid_sim::FluidSimConfig& config)
 {
-  for (const std::string& w : checkReconfigure(config, current_)) ROS_WARN("%s", w.c_str());
+  for (const std::string& w : checkReconfigure(config, current_, &scene_)) ROS_WARN("%s", w.c_str());
   current_ = config;
   publishers_.setMaxPoints(static_cast<std::size_t>(std::max(0, config.max_points)));
   publishers_.setSurfaceRate(config.surface_rate);

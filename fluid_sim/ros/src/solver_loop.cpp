@@ -171,6 +171,11 @@ CommandResult SolverLoop::pause(bool paused)
 {
   std::lock_guard<std::mutex> lock(cmd_mutex_);
   if (paused_ && !paused) reanchor_ = true;  // resume: pacing restarts from where it stopped
+  if (!paused && steps_requested_ > 0)
+  {
+    steps_requested_ = 0;  // a resume ends stepping on request; the waiting calls say so
+    ++steps_cancelled_;
+  }
   paused_ = paused;
   cmd_cv_.notify_all();
   CommandResult r;
@@ -195,13 +200,33 @@ CommandResult SolverLoop::step(unsigned steps)
     r.message = "steps must be at least 1";
     return r;
   }
-  const std::uint64_t target = steps_done_counter_ + steps_requested_ + steps;
+  const std::uint64_t first = steps_done_counter_ + steps_requested_;  // steps queued before these
+  const std::uint64_t target = first + steps;
+  const std::uint64_t cancelled = steps_cancelled_;
   steps_requested_ += steps;
   cmd_cv_.notify_all();
-  const bool done = cmd_cv_.wait_for(lock, std::chrono::seconds(300),
-                                     [&] { return steps_done_counter_ >= target || stopping_.load() || !paused_; });
-  r.success = done && steps_done_counter_ >= target;
-  r.message = r.success ? last_status_ : "interrupted before all steps were taken";
+  const bool ended = cmd_cv_.wait_for(lock, std::chrono::seconds(kStepServiceWait), [&] {
+    return steps_done_counter_ >= target || stopping_.load() || !paused_ || steps_cancelled_ != cancelled;
+  });
+  r.success = steps_done_counter_ >= target;
+  if (!r.success)
+  {
+    std::string why = "the node is shutting down";
+    if (!ended)
+    {
+      // Not left running after the call returned: whoever asked is no longer waiting for them.
+      why = "the service waits at most " + std::to_string(kStepServiceWait) + " s; the rest were cancelled";
+      steps_requested_ = 0;
+      ++steps_cancelled_;
+      cmd_cv_.notify_all();
+    }
+    else if (steps_cancelled_ != cancelled || !paused_)
+      why = "cancelled by a resume, a reset, an unstable step or another call's time-out";
+    const std::uint64_t taken = steps_done_counter_ > first ? steps_done_counter_ - first : 0;
+    r.message = "interrupted after " + std::to_string(taken) + " of " + std::to_string(steps) + " steps: " + why;
+  }
+  else
+    r.message = last_status_;
   // Not sim_->time(): once resumed, the solver steps without cmd_mutex_ (a copy written under it).
   r.sim_time = sim_time_;
   return r;
@@ -225,6 +250,11 @@ void SolverLoop::applyCommands()
   if (reset_requested_)
   {
     reset_requested_ = false;
+    if (steps_requested_ > 0)
+    {
+      steps_requested_ = 0;  // a reset drops steps still queued: they were meant for the old state
+      ++steps_cancelled_;
+    }
     reset_error_.clear();
     ros::Time poses_stamp;
     const std::map<std::string, Pose> poses = links_.newestPoses(poses_stamp);
@@ -369,11 +399,16 @@ void SolverLoop::run()
       while (!stopping_ && ros::ok())
       {
         const ros::Time now = ros::Time::now();
-        if (now >= due) break;
-        if (now < anchor_ros_)
+        // ROS time went back (a bag played again with --clock, a simulator restarted under
+        // use_sim_time): behind the time line's anchor, or behind the last instant looked at
+        // (waiting for the old time line to come round again would stall the node for as long).
+        const bool back = now < anchor_ros_ || (!last_seen_now_.isZero() && now < last_seen_now_);
+        const ros::Time before = last_seen_now_.isZero() ? anchor_ros_ : last_seen_now_;
+        last_seen_now_ = now;
+        if (now >= due && !back) break;
+        if (back)
         {
-          // ROS time went back (a bag or a simulator restarted under use_sim_time).
-          ROS_WARN("ROS time jumped back from %.3f to %.3f s; simulated time continues from there", anchor_ros_.toSec(),
+          ROS_WARN("ROS time jumped back from %.3f to %.3f s; simulated time continues from there", before.toSec(),
                    now.toSec());
           std::lock_guard<std::mutex> lock(cmd_mutex_);
           reanchor_ = true;
@@ -422,7 +457,8 @@ void SolverLoop::run()
     afterStep(rep, frame_rtf);  // its frame goes out before a step service call returns
     if (stepping_on_request)
     {
-      --steps_requested_;
+      // A resume or a time-out may have cancelled the queue while this step ran.
+      if (steps_requested_ > 0) --steps_requested_;
       ++steps_done_counter_;
       cmd_cv_.notify_all();
       step_lock.unlock();
@@ -437,6 +473,7 @@ void SolverLoop::run()
       if (last_frame_sim_ != sim_->time()) publishFrame(rep, frame_rtf);
       std::lock_guard<std::mutex> lock(cmd_mutex_);
       paused_ = true;
+      if (steps_requested_ > 0) ++steps_cancelled_;
       steps_requested_ = 0;
       cmd_cv_.notify_all();
       if (opt_.stop_after > 0.0)
@@ -482,6 +519,7 @@ bool SolverLoop::waitForTf(const ros::Time& stamp)
                           "for it at t = %.3f s",
                           link.c_str(), stamp.toSec(), (stamp - newest).toSec(), sim_->time());
       warned = true;
+      publishWaitingStats(link);
     }
     {
       std::lock_guard<std::mutex> lock(cmd_mutex_);
@@ -594,15 +632,28 @@ void SolverLoop::publishFrame(const StepReport& rep, double paced_rtf)
   f.fluid.velocities = sim_->velocities();
   f.fluid.pressures = sim_->pressures();
   f.fluid.densities = sim_->densities();
-  bool any_moving = false;
-  for (std::size_t k = 0; k < sim_->numBodies() && !any_moving; ++k) any_moving = sim_->body(k).moving;
-  f.boundary_valid = opt_.publish_boundary && (boundary_dirty_ || any_moving);
+  // The boundary cloud goes out again when a body has moved since it last did: a link that tf
+  // holds still, or a free body at rest, is posed every step but sends nothing new. tf2's
+  // interpolation between two equal samples differs in the last bits from step to step (3e-17 m),
+  // so a move is one beyond a millionth of a spacing (the cloud's float positions do not show less).
+  bool any_moved = false;
+  const double still = 1e-6 * sim_->scene().spacing;  // m
+  if (boundary_poses_.size() != sim_->numBodies()) boundary_poses_.assign(sim_->numBodies(), Pose());
+  for (std::size_t k = 0; k < sim_->numBodies() && !any_moved; ++k)
+  {
+    const BodyInfo b = sim_->body(k);
+    const Pose& was = boundary_poses_[k];
+    any_moved = b.moving && ((b.pose.translation - was.translation).norm() > still ||
+                             (b.pose.rotation.coeffs() - was.rotation.coeffs()).norm() > 1e-9);
+  }
+  f.boundary_valid = opt_.publish_boundary && (boundary_dirty_ || any_moved);
   if (f.boundary_valid)
   {
     f.boundary = sim_->boundaryPositions();
     f.boundary_pressure = sim_->boundaryPressures();
     f.body_ranges = body_ranges_;
     boundary_dirty_ = false;
+    for (std::size_t k = 0; k < sim_->numBodies(); ++k) boundary_poses_[k] = sim_->body(k).pose;
   }
   f.body_poses.resize(sim_->numBodies());
   f.free_bodies.bodies.clear();
@@ -659,6 +710,16 @@ void SolverLoop::publishPausedStats()
   if (WallClock::now() - last_paused_stats_ < std::chrono::seconds(1)) return;
   last_paused_stats_ = WallClock::now();
   fluid_msgs::SolverStats s = toSolverStats(last_report_, *sim_, rtf_measured_, true, last_status_);
+  s.header.stamp = ros::Time::now();
+  s.header.frame_id = opt_.fixed_frame;
+  publishers_.publishStats(s);
+}
+
+void SolverLoop::publishWaitingStats(const std::string& link)
+{
+  if (WallClock::now() - last_paused_stats_ < std::chrono::seconds(1)) return;
+  last_paused_stats_ = WallClock::now();
+  fluid_msgs::SolverStats s = toSolverStats(last_report_, *sim_, rtf_measured_, false, "waiting_for_tf: " + link);
   s.header.stamp = ros::Time::now();
   s.header.frame_id = opt_.fixed_frame;
   publishers_.publishStats(s);

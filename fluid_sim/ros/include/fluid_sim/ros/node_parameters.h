@@ -76,11 +76,16 @@ constexpr double kMaxProbeWindow = 10.0;   // s of simulated time
 void checkNodeOptions(const NodeOptions& opt, const std::string& ns);
 
 /// Checks a dynamic_reconfigure request (already clamped to the .cfg's ranges by the server,
-/// but a NaN passes that, and a real-time factor just above 0 is in range there): each value
-/// out of the node's range is set back to its value in `current`, and one warning per refused
-/// value (naming it and the value) is returned.
+/// but a NaN passes that, a real-time factor just above 0 is in range there, and the server
+/// takes any string for an enum): each value out of the node's range, and a warm_start_guess or
+/// viscosity_model that is not one of the .cfg's names, is set back to its value in `current`,
+/// and one warning per refused value (naming it and the value) is returned. With `scene` (the
+/// simulation's scene), the solver and viscosity settings that result are also checked as the
+/// solver will check them (validate(), e.g. min_iterations above max_iterations); if it refuses
+/// them, all of them are set back to `current`'s, with one warning giving its reason, so that
+/// the server reports the settings in effect.
 std::vector<std::string> checkReconfigure(fluid_sim::FluidSimConfig& requested,
-                                          const fluid_sim::FluidSimConfig& current);
+                                          const fluid_sim::FluidSimConfig& current, const SceneConfig* scene = nullptr);
 
 /// Private parameters that are not scene keys: the node's options, and the values the
 /// dynamic_reconfigure server writes back into the private namespace.

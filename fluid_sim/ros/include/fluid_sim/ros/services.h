@@ -47,8 +47,9 @@ private:
   bool onReset(std_srvs::Trigger::Request& req, std_srvs::Trigger::Response& res);
   bool onPause(std_srvs::SetBool::Request& req, std_srvs::SetBool::Response& res);
   bool onStep(fluid_msgs::StepSimulation::Request& req, fluid_msgs::StepSimulation::Response& res);
-  /// Refuses values out of the node's ranges (checkReconfigure: set back, with a warning), then
-  /// hands the request on. `config` is what the server then reports.
+  /// Refuses values out of the node's ranges and solver settings the scene's checks refuse
+  /// (checkReconfigure: set back, with a warning), then hands the request on. `config` is what
+  /// the server then reports.
   void onReconfigure(fluid_sim::FluidSimConfig& config);
 
   SolverLoop& loop_;
@@ -57,6 +58,7 @@ private:
   std::unique_ptr<dynamic_reconfigure::Server<fluid_sim::FluidSimConfig>> reconfigure_;
   boost::recursive_mutex reconfigure_mutex_;
   fluid_sim::FluidSimConfig current_;  // the settings last accepted (under reconfigure_mutex_)
+  SceneConfig scene_;                  // the simulation's scene when advertised: what a request is validated against
   mutable std::mutex names_mutex_;
   std::vector<std::string> names_;  // under names_mutex_
 };

@@ -103,10 +103,15 @@ public:
   // Commands, from any thread; each is applied by the solver thread between two steps.
   /// Rebuilds the scene with the newest link poses; returns when done (or after 120 s).
   CommandResult reset();
-  /// Pauses (true) or resumes (false); a resume restarts the pacing from now.
+  /// Pauses (true) or resumes (false); a resume restarts the pacing from now and cancels steps
+  /// still queued by step().
   CommandResult pause(bool paused);
-  /// Takes `steps` steps while paused; returns when they are done (or after 300 s).
+  /// Takes `steps` steps while paused; returns when they are done. It waits at most
+  /// kStepServiceWait: then the steps not yet taken are cancelled (not left running after the
+  /// call has returned), as they are by a resume, a reset, an unstable step or shutdown; the
+  /// message then says how many were taken and why the rest were not.
   CommandResult step(unsigned steps);
+  static constexpr int kStepServiceWait = 300;  // s
   /// New live settings: publish_rate and real_time_factor at once, solver and viscosity
   /// settings before the next step.
   void reconfigure(const fluid_sim::FluidSimConfig& config);
@@ -129,6 +134,10 @@ private:
   /// The ROS instant to pose the links at for the step from simulated time `t`.
   ros::Time poseStamp(double t);
   void publishPausedStats();
+  /// While a step waits for tf (waitForTf) more than a second: the last step's stats, stamped
+  /// now, with status "waiting_for_tf: <link>", at most one a second, so that a monitor of stats
+  /// sees why nothing moves.
+  void publishWaitingStats(const std::string& link);
   void printSummary();
 
   const NodeOptions& opt_;
@@ -154,6 +163,7 @@ private:
   std::string reset_error_;
   unsigned steps_requested_ = 0;
   std::uint64_t steps_done_counter_ = 0;
+  std::uint64_t steps_cancelled_ = 0;  // how often queued steps were dropped (wakes waiting step calls)
   std::optional<fluid_sim::FluidSimConfig> pending_config_;
   bool reanchor_ = true;   // pacing restarts from the current instants (start, resume, reset, rtf change)
   ros::Time built_at_;     // ROS instant of the poses build() placed the links at; zero once the anchor used it
@@ -187,8 +197,9 @@ private:
   double rtf_measured_ = 0.0;  // simulated s per wall s
 
   // Solver-thread state: frames.
-  bool boundary_dirty_ = true;    // the boundary cloud must be (re)published
-  double last_frame_sim_ = -1.0;  // s, simulated time of the last frame published (-1: none since the build)
+  bool boundary_dirty_ = true;        // the boundary cloud must be (re)published
+  std::vector<Pose> boundary_poses_;  // each body's pose when the boundary cloud last went out
+  double last_frame_sim_ = -1.0;      // s, simulated time of the last frame published (-1: none since the build)
   std::vector<std::pair<std::size_t, std::size_t>> body_ranges_;  // boundary particles of each body
   WrenchMeans wrench_means_;
   // The scene's instruments, measured once per published frame (the probes after every step when
@@ -204,7 +215,8 @@ private:
   // step service under it; the solver thread reads them without the lock.
   std::string last_status_ = "ok";
   double sim_time_ = 0.0;                    // s, simulated time after the last step (a copy of sim_->time())
-  WallClock::time_point last_paused_stats_;  // stats while paused: at most one a second
+  WallClock::time_point last_paused_stats_;  // stats while paused or waiting for tf: at most one a second
+  ros::Time last_seen_now_;                  // ROS time when the pacing last looked (a jump back is below it)
 
   // Run statistics (for the summary printed at the end).
   std::uint64_t steps_ = 0, frames_ = 0;
