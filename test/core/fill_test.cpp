@@ -309,3 +309,50 @@ TEST(StillFill, ARelaxationCutShortIsReportedUnsettled)
   EXPECT_FALSE(cut.fillReport().settled);
   EXPECT_GT(cut.fillReport().final_density_error, scene.fill.relax_tolerance);
 }
+
+// Water may lie in any container of the scene: a closed cup standing in a tank, each with its
+// water, and two tanks side by side. A point outside any one container used to be dropped, so
+// the cup dropped all of the tank's water (silently) and a second tank made the scene fail.
+TEST(StillFill, WaterIsKeptInsideAnyOfSeveralContainers)
+{
+  const auto box = [](const char* name, const Vec3d& lo, const Vec3d& hi) {
+    BoundaryConfig b;
+    b.name = name;
+    b.box = {lo, hi};
+    b.inside = true;
+    return b;
+  };
+  const auto block = [](const Vec3d& lo, const Vec3d& hi) {
+    FluidBlockConfig f;
+    f.box = {lo, hi};
+    return f;
+  };
+  SceneConfig nested;
+  nested.spacing = 0.025;
+  nested.domain = {Vec3d(-0.1, -0.1, -0.1), Vec3d(0.5, 0.5, 0.6)};
+  nested.fill.relax = false;
+  nested.boundaries.push_back(box("tank", Vec3d(0, 0, 0), Vec3d(0.4, 0.4, 0.5)));
+  nested.boundaries.push_back(box("cup", Vec3d(0.1, 0.1, 0.2), Vec3d(0.2, 0.2, 0.3)));
+  nested.fluid.push_back(block(Vec3d(0, 0, 0), Vec3d(0.4, 0.4, 0.1)));         // 16 x 16 x 4 points
+  nested.fluid.push_back(block(Vec3d(0.1, 0.1, 0.2), Vec3d(0.2, 0.2, 0.25)));  // 4 x 4 x 2
+  Simulation sim(nested);
+  EXPECT_EQ(sim.numFluidParticles() + sim.removedAtStart(), 16u * 16u * 4u + 4u * 4u * 2u);
+  EXPECT_EQ(sim.removedAtStart(), 0u);  // box walls aligned with the lattice: nothing trimmed
+  // Water outside both (above the tank's lid) is still dropped.
+  nested.fluid.push_back(block(Vec3d(0.1, 0.1, 0.55), Vec3d(0.2, 0.2, 0.6)));
+  Simulation above(nested);
+  EXPECT_EQ(above.numFluidParticles(), sim.numFluidParticles());
+
+  SceneConfig twin;
+  twin.spacing = 0.025;
+  twin.domain = {Vec3d(-0.1, -0.1, -0.1), Vec3d(1.0, 0.5, 0.5)};
+  twin.fill.relax = false;
+  twin.boundaries.push_back(box("left", Vec3d(0, 0, 0), Vec3d(0.4, 0.4, 0.4)));
+  twin.boundaries.push_back(box("right", Vec3d(0.5, 0, 0), Vec3d(0.9, 0.4, 0.4)));
+  twin.fluid.push_back(block(Vec3d(0, 0, 0), Vec3d(0.4, 0.4, 0.1)));
+  Simulation one(twin);  // the right tank empty
+  EXPECT_EQ(one.numFluidParticles(), 16u * 16u * 4u);
+  twin.fluid.push_back(block(Vec3d(0.5, 0, 0), Vec3d(0.9, 0.4, 0.1)));
+  Simulation both(twin);
+  EXPECT_EQ(both.numFluidParticles(), 2u * 16u * 16u * 4u);
+}

@@ -117,7 +117,48 @@ TEST(FreeBodyMass, OpenOrInsideOutMeshesAndBadEntriesAreRefusedByName)
   {
     EXPECT_NE(std::string(e.what()).find("open mesh"), std::string::npos) << e.what();
   }
+  // With mass and inertia but no centre of mass it still has none to take (the message used to
+  // ask only for the two it had).
+  s.boundaries[1].dynamic.density = 0.0;
+  s.boundaries[1].dynamic.mass = 2.0;
+  s.boundaries[1].dynamic.inertia = std::array<double, 6>{0.01, 0.01, 0.01, 0, 0, 0};
+  try
+  {
+    validate(s);
+    FAIL() << "an open mesh without a centre of mass was accepted";
+  }
+  catch (const ConfigError& e)
+  {
+    EXPECT_NE(std::string(e.what()).find("center_of_mass"), std::string::npos) << e.what();
+  }
+  s.boundaries[1].dynamic.center_of_mass = Vec3d(0.5, 0.5, 0.5);
+  EXPECT_NO_THROW(validate(s));
   s.boundaries[1] = freeBox("crate", Vec3d(0.4, 0.4, 0.4), Vec3d(0.6, 0.6, 0.6), 600.0);
+  // A centre of mass beyond the body (5 m from a 0.2 m box): a unit or frame mistake.
+  s.boundaries[1].dynamic.center_of_mass = Vec3d(5.0, 0.5, 0.5);
+  try
+  {
+    Simulation sim(s);
+    FAIL() << "a centre of mass 5 m outside the box was accepted";
+  }
+  catch (const ConfigError& e)
+  {
+    EXPECT_EQ(e.key(), "boundaries[1].dynamic.center_of_mass") << e.what();
+  }
+  s.boundaries[1].dynamic.center_of_mass = Vec3d(0.5, 0.5, 0.45);  // off-centre, inside
+  EXPECT_NO_THROW(Simulation sim(s));
+  s.boundaries[1].dynamic.center_of_mass.reset();
+  s.boundaries[1].dynamic.density = 0.0;  // given as zero: the message says what it got
+  try
+  {
+    validate(s);
+    FAIL() << "a density of 0 was accepted";
+  }
+  catch (const ConfigError& e)
+  {
+    EXPECT_NE(std::string(e.what()).find("got density 0"), std::string::npos) << e.what();
+  }
+  s.boundaries[1].dynamic.density = 600.0;
   s.boundaries[1].dynamic.mass = 2.0;  // both density and mass
   EXPECT_THROW(validate(s), ConfigError);
   s.boundaries[1].dynamic.density = 0.0;

@@ -78,8 +78,15 @@ BodySet::BodySet(const SceneConfig& scene)
     if (cfg.dynamic.enabled)
     {
       // Mass properties of the shape as given, before sampling (rigid_dynamics.cpp).
-      const MassProperties mp =
-          massProperties(body.config, "boundaries[" + std::to_string(bodies_.size()) + "].dynamic");
+      const std::string key = "boundaries[" + std::to_string(bodies_.size()) + "].dynamic";
+      const MassProperties mp = massProperties(body.config, key);
+      // A centre of mass beyond every particle of the body (by more than a spacing) is not the
+      // body's: most likely a unit or frame mistake (it sent a box 5 m away falling through the
+      // floor).
+      if (cfg.dynamic.center_of_mass && mp.com.norm() > body.reach + scene.spacing)
+        throw ConfigError(key + ".center_of_mass",
+                          "lies " + numberText(mp.com.norm()) + " m from the body frame's origin, outside '" +
+                              cfg.name + "', whose particles reach at most " + numberText(body.reach) + " m from it");
       body.free = true;
       body.mass = mp.mass;
       body.com_local = mp.com;

@@ -56,17 +56,28 @@ bool isOpenShell(const Body& body)
   return body.openShell();
 }
 
+/// Whether a point is left out: near an open shell, inside a solid, or, in a scene with
+/// containers, inside none of them. Water may lie in any container (two tanks side by side, a
+/// closed cup standing in a tank, water in both): before, a point outside any one container was
+/// left out, so a second container dropped the other's water (all of it when nested, silently).
 bool blockedByBody(const Vec3d& pos, const BodySet& bodies, const ProximityIndex& open_shells)
 {
   if (open_shells.near(pos)) return true;
+  bool containers = false, in_a_container = false;
   for (const Body& body : bodies.bodies())
   {
     if (isOpenShell(body)) continue;
     const Vec3d local = body.pose.rotation.conjugate() * (pos - body.pose.translation);
     const bool in = insideShape(body.config, local);
-    if (body.config.inside ? !in : in) return true;
+    if (body.config.inside)
+    {
+      containers = true;
+      in_a_container = in_a_container || in;
+    }
+    else if (in)
+      return true;
   }
-  return false;
+  return containers && !in_a_container;
 }
 }  // namespace
 

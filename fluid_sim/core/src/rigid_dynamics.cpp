@@ -104,8 +104,9 @@ ShapeMass shapeMass(const BoundaryConfig& b, const std::string& key)
     case ShapeType::Mesh:
     {
       if (!b.mesh_closed)
-        throw ConfigError(key,
-                          "'" + b.name + "' is an open mesh, which has no volume: give mass (kg) and inertia (kg m^2)");
+        throw ConfigError(key, "'" + b.name +
+                                   "' is an open mesh, which has no volume: give mass (kg), inertia (kg m^2, about the "
+                                   "centre of mass) and center_of_mass (m, body frame)");
       out = meshMass(b.mesh);
       if (!(out.volume > 0.0))
         throw ConfigError(

@@ -258,10 +258,12 @@ void validateDynamic(const BoundaryConfig& b, const std::string& key)
     throw ConfigError(key, "density and mass must be finite and positive, got density " + str(d.density) +
                                " kg/m^3, mass " + str(d.mass) + " kg");
   if ((d.density > 0.0) == (d.mass > 0.0))
-    throw ConfigError(key, "give exactly one of density (kg/m^3) and mass (kg) for '" + b.name + "'");
-  if (b.type == ShapeType::Mesh && !b.mesh_closed && (!(d.mass > 0.0) || !d.inertia))
-    throw ConfigError(key,
-                      "'" + b.name + "' is an open mesh, which has no volume: give mass (kg) and inertia (kg m^2)");
+    throw ConfigError(key, "give exactly one of density (kg/m^3) and mass (kg), > 0, for '" + b.name +
+                               "', got density " + str(d.density) + ", mass " + str(d.mass));
+  if (b.type == ShapeType::Mesh && !b.mesh_closed && (!(d.mass > 0.0) || !d.inertia || !d.center_of_mass))
+    throw ConfigError(key, "'" + b.name +
+                               "' is an open mesh, which has no volume: give mass (kg), inertia (kg m^2, about the "
+                               "centre of mass) and center_of_mass (m, body frame)");
   if (d.inertia)
   {
     const std::array<double, 6>& i = *d.inertia;
