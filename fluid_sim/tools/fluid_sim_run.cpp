@@ -252,6 +252,7 @@ int run(const Options& options)
                           "'" + scene.emitters[i].frame +
                               "' is a tf frame, which only the ROS node follows; give the runner a pose or a body");
     sim = std::make_unique<Simulation>(scene);
+    for (const std::string& warning : sim->startWarnings()) std::cerr << "warning: " << warning << '\n';
     instruments = std::make_unique<Measurements>(*sim);  // a region's body must be one of sim's
   }
   catch (const io::SceneError& e)

@@ -501,3 +501,33 @@ TEST(FreeBody, StacksAndIsPushedWithParticleContacts)
   EXPECT_NEAR(r.pushed.center_of_mass.z(), 0.03 - 0.07 * s, 0.08 * s);
   EXPECT_GT(r.closest, 0.5 * s);
 }
+
+TEST(FreeBody, AStartOverlappingAWallOrABodyIsWarnedAbout)
+{
+  // Bodies that only touch (one on the floor, one against it side by side) pass; one across the
+  // floor, two overlapping, one outside the tank are named (they would be thrown clear or fall).
+  SceneConfig s = test::waterTank(0.02, Vec3d(0.6, 0.4, 0.4), 0.1);
+  s.boundaries.push_back(freeBox("resting", Vec3d(0.1, 0.1, 0.0), Vec3d(0.2, 0.2, 0.1), 800.0));
+  s.boundaries.push_back(freeBox("beside", Vec3d(0.2, 0.1, 0.0), Vec3d(0.3, 0.2, 0.1), 800.0));
+  {
+    Simulation sim(s);
+    EXPECT_TRUE(sim.startWarnings().empty()) << sim.startWarnings().front();
+  }
+  s.boundaries.push_back(freeBox("sunk", Vec3d(0.4, 0.1, -0.05), Vec3d(0.5, 0.2, 0.05), 800.0));
+  s.boundaries.push_back(freeBox("into", Vec3d(0.25, 0.1, 0.0), Vec3d(0.35, 0.2, 0.1), 800.0));
+  s.boundaries.push_back(freeBox("away", Vec3d(0.8, 0.1, 0.1), Vec3d(0.9, 0.2, 0.2), 800.0));
+  s.domain.max.x() = 1.0;
+  Simulation sim(s);
+  const std::vector<std::string>& w = sim.startWarnings();
+  const auto said = [&](const std::string& a, const std::string& b) {
+    for (const std::string& line : w)
+      if (line.find(a) != std::string::npos && line.find(b) != std::string::npos) return true;
+    return false;
+  };
+  EXPECT_TRUE(said("'sunk' starts across the wall of 'tank'", "outside it"));
+  EXPECT_TRUE(said("'into' starts overlapping 'beside'", "inside it"));
+  EXPECT_TRUE(said("'beside' starts overlapping 'into'", "inside it"));
+  EXPECT_TRUE(said("'away' starts outside every container", ""));
+  EXPECT_FALSE(said("'resting'", ""));
+  EXPECT_EQ(w.size(), 4u);
+}

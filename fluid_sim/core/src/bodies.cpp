@@ -116,6 +116,49 @@ BodySet::BodySet(const SceneConfig& scene)
     }
     pose(body, 0.0, true);
   }
+  if (has_free_) checkFreeStart();
+}
+
+void BodySet::checkFreeStart()
+{
+  // A particle of the free body inside another body's solid, or on the far side of a container's
+  // wall, means the two overlap by at least the half spacing the particle layer lies inside its
+  // surface: bodies that merely touch (a box on the floor, two boxes side by side) pass.
+  bool containers = false;
+  for (const Body& other : bodies_) containers = containers || (other.config.inside && !other.openShell());
+  for (const Body& body : bodies_)
+  {
+    if (!body.free) continue;
+    const std::size_t n = body.local.size();
+    bool in_some_container = false;
+    for (const Body& other : bodies_)
+    {
+      if (&other == &body || other.openShell()) continue;
+      std::size_t inside = 0;
+      for (std::size_t k = body.offset; k < body.offset + n; ++k)
+      {
+        const Vec3d local = other.pose.rotation.conjugate() * (x[k].cast<double>() - other.pose.translation);
+        inside += insideShape(other.config, local) ? 1 : 0;
+      }
+      if (other.config.inside)
+      {
+        in_some_container = in_some_container || inside > 0;
+        if (inside > 0 && inside < n)
+          start_warnings_.push_back("free body '" + body.config.name + "' starts across the wall of '" +
+                                    other.config.name + "' (" + std::to_string(n - inside) + " of its " +
+                                    std::to_string(n) + " particles outside it): it will be thrown clear at once; " +
+                                    "start it inside, clear of the wall");
+      }
+      else if (inside > 0)
+        start_warnings_.push_back("free body '" + body.config.name + "' starts overlapping '" + other.config.name +
+                                  "' (" + std::to_string(inside) + " of its " + std::to_string(n) +
+                                  " particles inside it): it will be thrown clear at once; start it clear");
+    }
+    if (containers && !in_some_container)
+      start_warnings_.push_back("free body '" + body.config.name +
+                                "' starts outside every container: nothing holds it, and it will fall out of the "
+                                "domain");
+  }
 }
 
 void BodySet::poseMoving(double time)

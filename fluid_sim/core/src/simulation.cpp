@@ -374,6 +374,11 @@ std::size_t Simulation::removedAtStart() const
 {
   return impl_->fill.dropped;
 }
+const std::vector<std::string>& Simulation::startWarnings() const
+{
+  return impl_->bodies.startWarnings();
+}
+
 const FillReport& Simulation::fillReport() const
 {
   return impl_->fill_report;

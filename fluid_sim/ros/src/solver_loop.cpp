@@ -88,6 +88,7 @@ void SolverLoop::build(const std::map<std::string, Pose>& poses, const ros::Time
   try
   {
     auto next = std::make_unique<Simulation>(scene);
+    for (const std::string& warning : next->startWarnings()) ROS_WARN("%s", warning.c_str());
     // The instruments (a region's body may be a URDF link): before anything is replaced.
     auto instruments = std::make_unique<Measurements>(*next);
     sim_ = std::move(next);

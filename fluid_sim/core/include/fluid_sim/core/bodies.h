@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "fluid_sim/core/scene_config.h"
@@ -135,6 +136,14 @@ public:
   {
     return has_free_;
   }
+  /// What the build found wrong with the free bodies' start (one line each, naming the bodies):
+  /// a free body that starts overlapping another body's solid, across a container's wall, or
+  /// outside every container of a scene that has some. Legal, but it will be thrown out of the
+  /// overlap at once (or fall out of the domain): most likely a placement mistake.
+  const std::vector<std::string>& startWarnings() const
+  {
+    return start_warnings_;
+  }
 
   /// Stores the caller's pose of an externally posed body for the next poseMoving().
   void setPendingPose(std::size_t index, const Pose& pose, bool jump);
@@ -171,12 +180,14 @@ public:
 
 private:
   void pose(Body& body, double time, bool force_write);
+  void checkFreeStart();  // fills start_warnings_ (after every body is posed at t = 0)
   Pose scriptedPose(const Body& body, double time) const;
 
   std::vector<Body> bodies_;
   std::vector<std::uint8_t> contact_mark_;  // per boundary particle, scratch of updateReports
   std::uint64_t static_version_ = 0, moving_version_ = 0;
   bool has_free_ = false;
+  std::vector<std::string> start_warnings_;
 };
 
 template <class Lists, class PressureAt>

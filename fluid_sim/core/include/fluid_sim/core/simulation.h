@@ -188,6 +188,10 @@ public:
   std::size_t removedAtStart() const;
   /// The trimming and relaxation of the lattices before t = 0.
   const FillReport& fillReport() const;
+  /// What the build found suspicious in the scene's start, one line each (free bodies that start
+  /// overlapping another body or outside every container, BodySet::startWarnings()): the runner
+  /// prints them, the node logs them.
+  const std::vector<std::string>& startWarnings() const;
   std::size_t removedTotal() const;  // particles that left the domain since start (sinks not counted)
   /// Per sink of the scene, in its order: what it removed since t = 0.
   const std::vector<SinkTotal>& sinkTotals() const;
