@@ -117,6 +117,24 @@ class Recorder:
             self.clouds.append(time.monotonic())
 
 
+def last_error(log):
+    """The launch log's last error line (the node's FATAL or ERROR: why it did not start), as
+    '; last error: ...', or ''."""
+    log.flush()
+    try:
+        with open(log.name, errors="replace") as f:
+            lines = [l.strip() for l in f if "FATAL" in l or "ERROR" in l or "error:" in l]
+    except OSError:
+        return ""
+    return "; last error: %s" % lines[-1][:400] if lines else ""
+
+
+def on_sigterm(signum, frame):
+    """SIGTERM (e.g. from `timeout`) as an exit, so that the finally blocks stop the launch and
+    its private master instead of leaving them running."""
+    raise SystemExit(128 + signum)
+
+
 def measure(args, scene, label):
     port = free_port()
     host = os.environ.get("ROS_HOSTNAME") or os.environ.get("ROS_IP") or "localhost"
@@ -143,7 +161,8 @@ def measure(args, scene, label):
                                  buff_size=1 << 24, tcp_nodelay=True)]
         while not rec.stats:
             if time.monotonic() > deadline or launch.poll() is not None:
-                raise SystemExit("%s: no stats within %g s (see %s)" % (label, args.start_timeout, log.name))
+                raise SystemExit("%s: no stats within %g s%s (see %s)"
+                                 % (label, args.start_timeout, last_error(log), log.name))
             time.sleep(0.2)
         pid = find_node_pid(launch.pid)
         time.sleep(args.warmup)
@@ -194,7 +213,8 @@ def main():
     parser.add_argument("--scene", default=os.path.join(ROOT, "config", "demo_scene.yaml"))
     parser.add_argument("--spacing", type=float, action="append", default=[], help="m; repeatable")
     parser.add_argument("--real-time-factor", type=float, default=1.0,
-                        help="the node's pacing and the robot's speed (> 0; see above)")
+                        help="the node's pacing (> 0); the robot moves this much faster too, so the "
+                             "water sees the demo's motion")
     parser.add_argument("--warmup", type=float, default=10.0, help="wall s before measuring (the start, the fill)")
     parser.add_argument("--seconds", type=float, default=20.0, help="wall s measured")
     parser.add_argument("--start-timeout", type=float, default=120.0)
@@ -202,6 +222,7 @@ def main():
     parser.add_argument("--json", help="also write the rows to this file")
     parser.add_argument("--one", help=argparse.SUPPRESS)  # internal: one run in this process
     args = parser.parse_args()
+    signal.signal(signal.SIGTERM, on_sigterm)
     if not args.real_time_factor > 0:
         parser.error("--real-time-factor must be > 0 (a scene posed from tf cannot run ahead of its tf)")
     scene = os.path.abspath(args.scene)
@@ -209,7 +230,9 @@ def main():
         # A child run: rospy cannot init twice in one process, so each spacing gets its own.
         print(json.dumps(measure(args, args.one, os.path.basename(args.one))))
         return 0
-    args.out_dir = args.out_dir or tempfile.mkdtemp(prefix="node_speed_")
+    # Absolute: the scene written there is handed to the node, which resolves a relative path
+    # against its own working folder (~/.ros), not this one.
+    args.out_dir = os.path.abspath(args.out_dir or tempfile.mkdtemp(prefix="node_speed_"))
     os.makedirs(args.out_dir, exist_ok=True)
     scenes = [scene_with_spacing(scene, s, args.out_dir) for s in args.spacing] or [scene]
     rows, failed = [], False
@@ -217,12 +240,18 @@ def main():
         child = [sys.executable, os.path.abspath(__file__), "--one", sc, "--out-dir", args.out_dir,
                  "--real-time-factor", str(args.real_time_factor), "--warmup", str(args.warmup),
                  "--seconds", str(args.seconds), "--start-timeout", str(args.start_timeout)]
-        res = subprocess.run(child, stdout=subprocess.PIPE, universal_newlines=True)
-        if res.returncode != 0 or not res.stdout.strip():
-            print("%s: run failed (exit %d; logs in %s)" % (sc, res.returncode, args.out_dir), file=sys.stderr)
+        proc = subprocess.Popen(child, stdout=subprocess.PIPE, universal_newlines=True)
+        try:
+            out, _ = proc.communicate()
+        except BaseException:
+            proc.terminate()  # the child's SIGTERM handler stops its launch
+            proc.wait(60)
+            raise
+        if proc.returncode != 0 or not out.strip():
+            print("%s: run failed (exit %d; logs in %s)" % (sc, proc.returncode, args.out_dir), file=sys.stderr)
             failed = True
             continue
-        row = json.loads(res.stdout.strip().splitlines()[-1])
+        row = json.loads(out.strip().splitlines()[-1])
         if row["status"] != ["ok"] or row["clouds_per_s"] == 0:
             # No cloud received: the figures would miss the publishing they are meant to include.
             print("%s: status %s, %.1f clouds/s" % (sc, ",".join(row["status"]), row["clouds_per_s"]), file=sys.stderr)

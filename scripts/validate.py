@@ -1804,6 +1804,11 @@ def main():
     ap.add_argument("--extra-runner", action="append", type=extra_runner, metavar="LABEL=PATH",
                     help="case 7 also runs with this runner (another build: -march=haswell, portable); repeatable")
     opts = ap.parse_args()
+    # Checked here: a bad value would otherwise reach every run and read as physics failing.
+    if opts.jobs < 1:
+        ap.error("--jobs must be at least 1, got %d" % opts.jobs)
+    if not 1 <= opts.threads <= 1024:
+        ap.error("--threads must be 1 to 1024 (the runner's range), got %d" % opts.threads)
     if opts.work is None:
         opts.work = os.path.join(ROOT, "out", "validation-quick" if opts.quick else "validation")
     if opts.out_dir is None:

@@ -14,10 +14,13 @@
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <iostream>
+#include <limits>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -260,24 +263,43 @@ int main(int argc, char** argv)
   std::vector<std::string> methods;
   std::string json_path;
   app.add_option("scene", scene_path, std::string("scene YAML (default: ") + kDefaultScene + ")");
-  app.add_option("--steps", steps, "measured steps per row")->check(CLI::PositiveNumber)->capture_default_str();
+  // CLI11's PositiveNumber and NonNegativeNumber print their range with DBL_MAX spelled out.
+  app.add_option("--steps", steps, "measured steps per row")
+      ->check(CLI::Range(1, std::numeric_limits<int>::max()))
+      ->capture_default_str();
   app.add_option("--warmup", warmup, "unmeasured steps before them")
-      ->check(CLI::NonNegativeNumber)
+      ->check(CLI::Range(0, std::numeric_limits<int>::max()))
       ->capture_default_str();
   app.add_option("--set", overrides, "scene override key.path=value (YAML value), repeatable")
       ->allow_extra_args(false)
       ->take_all();
-  app.add_option("--threads", threads, "worker threads (0 = all cores)")->check(CLI::NonNegativeNumber);
+  app.add_option("--threads", threads, "worker threads, 0 to 1024 (0 = all cores)")->check(CLI::Range(0, 1024));
   app.add_option("--spacing", spacings, "particle spacing in m, repeatable (default: the scene's)")
       ->allow_extra_args(false)
       ->take_all()
-      ->check(CLI::PositiveNumber);
+      ->check(CLI::Validator(
+          [](std::string& text) {
+            char* end = nullptr;
+            const double v = std::strtod(text.c_str(), &end);
+            if (end == text.c_str() || *end != '\0' || !std::isfinite(v) || v <= 0.0)
+              return "must be a finite length > 0 (m), got '" + text + "'";
+            return std::string();
+          },
+          "METRES"));
   app.add_option("--method", methods,
                  "boundary pressure: mirroring | sph | mls | all, repeatable (default: the scene's)")
       ->allow_extra_args(false)
       ->take_all();
   app.add_option("--json", json_path, "also write the rows as JSON to FILE");
-  CLI11_PARSE(app, argc, argv);
+  try
+  {
+    app.parse(argc, argv);
+  }
+  catch (const CLI::ParseError& e)
+  {
+    const int code = app.exit(e);  // prints help or the usage error
+    return code == 0 ? 0 : 2;      // bad options: 2, as a bad scene (and as fluid_sim_run)
+  }
 
   if (scene_path.empty()) scene_path = findDefaultScene();
 

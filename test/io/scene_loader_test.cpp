@@ -740,7 +740,7 @@ TEST(SceneLoader, UrdfFreeLinks)
               "boundaries[0].urdf.free_links.hull.desnity", "did you mean 'density'");
   expectError(boatScene(urdf, "      free_links: [hull]\n"), "boundaries[0].urdf.free_links", "expected a map");
   expectError(boatScene(urdf, "      free_links: {hull: {density: 500, mass: 2}}\n"), "boundaries[0].dynamic",
-              "exactly one of density (kg/m^3) and mass (kg) for 'hull'");
+              "exactly one of density (kg/m^3) and mass (kg), > 0, for 'hull', got density 500, mass 2");
   expectError(boatScene(urdf, "") + "    dynamic: {density: 500}\n", "boundaries[0].dynamic", "urdf.free_links");
 }
 

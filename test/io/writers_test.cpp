@@ -266,6 +266,16 @@ TEST(BodiesCsvWriter, HeaderAndOneRowPerFreeBody)
   EXPECT_THROW(io::BodiesCsvWriter(dir.file("no/such/dir/bodies.csv")), std::runtime_error);
 }
 
+TEST(CsvField, QuotesWhatWouldShiftTheColumns)
+{
+  // A body may be named "a,b" (the runner accepts it): written bare, it shifted bodies.csv's
+  // columns by one for every CSV reader.
+  EXPECT_EQ(io::csvField("crate"), "crate");
+  EXPECT_EQ(io::csvField("a,b"), "\"a,b\"");
+  EXPECT_EQ(io::csvField("say \"hi\""), "\"say \"\"hi\"\"\"");
+  EXPECT_EQ(io::csvField("two\nlines"), "\"two\nlines\"");
+}
+
 TEST(RunSummary, FreeBodiesOnlyWhenThereAreAny)
 {
   io::RunSummary s;

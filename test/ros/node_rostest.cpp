@@ -1218,7 +1218,7 @@ void expectStartupError(const std::string& name, const std::vector<std::string>&
 
 TEST(Errors, MissingRobotDescriptionIsNamed)
 {
-  expectStartupError("no_description", {"missing robot_description", "/no_such_description"});
+  expectStartupError("no_description", {"missing robot_description", "/no_such_description' is not set"});
 }
 
 TEST(Errors, UnknownLinkIsNamed)

@@ -6,6 +6,18 @@ namespace fluid_sim
 {
 namespace io
 {
+std::string csvField(const std::string& text)
+{
+  if (text.find_first_of(",\"\r\n") == std::string::npos) return text;
+  std::string out = "\"";
+  for (char c : text)
+  {
+    out += c;
+    if (c == '"') out += '"';
+  }
+  return out + '"';
+}
+
 CsvFile::CsvFile(const std::string& path, const char* header) : path_(path), out_(path, std::ios::trunc)
 {
   if (!out_) throw std::runtime_error("cannot create " + path_);
@@ -33,7 +45,7 @@ void BodiesCsvWriter::write(double t, const std::vector<BodyInfo>& bodies)
   {
     if (!b.free) continue;
     const Eigen::Quaterniond& q = b.pose.rotation;
-    out_ << t << ',' << b.name;
+    out_ << t << ',' << csvField(b.name);
     vec(b.center_of_mass);
     out_ << ',' << q.x() << ',' << q.y() << ',' << q.z() << ',' << q.w();
     vec(b.com_velocity);
@@ -54,7 +66,7 @@ SinksCsvWriter::SinksCsvWriter(const std::string& path) : CsvFile(path, header()
 void SinksCsvWriter::write(double t, const std::vector<SinkTotal>& sinks)
 {
   for (const SinkTotal& s : sinks)
-    out_ << t << ',' << s.name << ',' << s.particles << ',' << s.volume << ',' << s.mass << '\n';
+    out_ << t << ',' << csvField(s.name) << ',' << s.particles << ',' << s.volume << ',' << s.mass << '\n';
 }
 
 const char* EmittersCsvWriter::header()
@@ -67,7 +79,8 @@ EmittersCsvWriter::EmittersCsvWriter(const std::string& path) : CsvFile(path, he
 void EmittersCsvWriter::write(double t, const std::vector<EmitterTotal>& emitters)
 {
   for (const EmitterTotal& e : emitters)
-    out_ << t << ',' << e.name << ',' << e.particles << ',' << e.volume << ',' << e.mass << ',' << e.blocked << '\n';
+    out_ << t << ',' << csvField(e.name) << ',' << e.particles << ',' << e.volume << ',' << e.mass << ',' << e.blocked
+         << '\n';
 }
 
 }  // namespace io

@@ -435,7 +435,16 @@ NodeParameters readNodeParameters(const ros::NodeHandle& pnh)
     }
     catch (const ConfigError& e)
     {
-      throw StartupError("parameter " + p.ns + "/scene_file: " + e.what());
+      // roslaunch reads scene:=tank.yaml from the folder it was started in, the node from its own
+      // working folder (~/.ros by default): say so, or the "no such file" reads as a lie.
+      const bool relative =
+          !uri.empty() && uri[0] != '/' && uri.rfind("package://", 0) != 0 && uri.rfind("file://", 0) != 0;
+      throw StartupError("parameter " + p.ns + "/scene_file: " + e.what() +
+                         (relative ? " (a relative path is taken from the node's working folder, " +
+                                         std::filesystem::current_path().string() +
+                                         ", not from where roslaunch was started: give an absolute path or a "
+                                         "package:// URI)"
+                                   : std::string()));
     }
   }
   if (params.getType() == XmlRpc::XmlRpcValue::TypeStruct)
@@ -531,7 +540,7 @@ std::vector<BoundaryConfig> readRobotLinks(const ros::NodeHandle& nh, const ros:
   if (!nh.getParam(found, xml))
   {
     const std::string top = "/" + key;  // the last place searched
-    const std::string where = absolute || found == top ? "parameter '" + found + "' is"
+    const std::string where = absolute || found == top ? "parameter '" + found + "' is not"
                                                        : "none of the parameters '" + found + "' ... '" + top + "' is";
     throw StartupError("missing robot_description: " + where +
                        " set (set it, e.g. with <param name=\"robot_description\" textfile=\"...\"/>, or "

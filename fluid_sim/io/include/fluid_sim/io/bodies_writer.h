@@ -19,6 +19,10 @@ namespace io
 {
 /// A CSV file the runner appends rows to: created (truncated) with its header line, 9
 /// significant digits as stats.csv and the instrument files; the writers below add the rows.
+/// A text field as a CSV cell (RFC 4180): as it is, or, when it holds a comma, a double quote or a
+/// line break, in double quotes with its double quotes doubled (a body may be named "a,b").
+std::string csvField(const std::string& text);
+
 class CsvFile
 {
 public:
