@@ -197,6 +197,15 @@ TEST(ParticlesKey, AFrameSavedAtAnotherSpacingIsWarnedAbout)
   ASSERT_EQ(fine.size(), 1u);
   EXPECT_NE(fine[0].find("the particles lie about 0.01 m from their nearest neighbours"), std::string::npos) << fine[0];
   EXPECT_TRUE(warnings("same.ply").empty());
+  // 10 % closer than the scene's spacing: not obvious from the nearest distances, but 1.37 times
+  // rest density, which blows up in the first step (a frame of 3 cm started at 3.5 cm did).
+  writeFrame(dir.file("close.ply"), lattice(7, 0.018, Vec3d(0.03, 0.03, 0.03)));
+  const std::vector<std::string> close = warnings("close.ply");
+  ASSERT_EQ(close.size(), 1u);
+  EXPECT_NE(close[0].find("the densest particles sit at 1.37"), std::string::npos) << close[0];
+  EXPECT_NE(close[0].find("as if saved at a spacing of about 0.0179"), std::string::npos) << close[0];
+  writeFrame(dir.file("near.ply"), lattice(7, 0.0196, Vec3d(0.03, 0.03, 0.03)));  // 2 % off: 1.06
+  EXPECT_TRUE(warnings("near.ply").empty());
 }
 
 /// Differences between two runs' particles: position (m) and velocity (m/s), largest and rms.

@@ -16,6 +16,7 @@
 
 #include "fluid_sim/core/boundary_sampling.h"
 #include "fluid_sim/core/cell_key.h"
+#include "fluid_sim/core/kernel.h"
 #include "fluid_sim/core/mesh_inside_index.h"
 #include "fluid_sim/io/file_util.h"
 #include "fluid_sim/io/mesh_loader.h"
@@ -182,20 +183,29 @@ OutputConfig readOutput(const Entry& e)
   return o;
 }
 
-/// The median distance (m) from a particle to its nearest neighbour, over up to about 1000
-/// particles spread through the list; a particle without a neighbour within 2 spacings counts as
-/// farther (+inf). Settled water at the spacing it was simulated with gives about one spacing.
-double medianNearestDistance(const std::vector<Vec3d>& x, double spacing)
+/// How a saved state's particles sit against the scene's spacing, from up to about 1,000 of them
+/// spread through the list.
+struct Packing
+{
+  double median_nearest = 0.0;  // m, median distance to the nearest neighbour (+inf: none within 2 s)
+  double densest = 0.0;         // the largest s^3 sum_j W(x_i - x_j) (Eq. A1 over rho0): 1 at rest density
+};
+
+Packing measurePacking(const std::vector<Vec3d>& x, double spacing)
 {
   const double cell = 2.0 * spacing;  // m; the 27 cells around a particle reach at least this far
   std::unordered_map<CellKey, std::vector<std::size_t>, CellKeyHash> grid;
   for (std::size_t i = 0; i < x.size(); ++i) grid[cellKeyOf(x[i], cell)].push_back(i);
+  const CubicKernel kernel(Real(2.0 * spacing));  // the scene's kernel (Eq. A18)
+  const double s3 = spacing * spacing * spacing;  // m^3
   std::vector<double> nearest;
+  Packing out;
   const std::size_t stride = std::max<std::size_t>(1, x.size() / 1000);
   for (std::size_t i = 0; i < x.size(); i += stride)
   {
     const CellKey key = cellKeyOf(x[i], cell);
     double best2 = std::numeric_limits<double>::infinity();  // m^2
+    double sum = double(kernel.W0());                        // 1/m^3
     for (long long dz = -1; dz <= 1; ++dz)
       for (long long dy = -1; dy <= 1; ++dy)
         for (long long dx = -1; dx <= 1; ++dx)
@@ -203,12 +213,19 @@ double medianNearestDistance(const std::vector<Vec3d>& x, double spacing)
           const auto it = grid.find({key.x + dx, key.y + dy, key.z + dz});
           if (it == grid.end()) continue;
           for (std::size_t j : it->second)
-            if (j != i) best2 = std::min(best2, (x[j] - x[i]).squaredNorm());
+            if (j != i)
+            {
+              const double d2 = (x[j] - x[i]).squaredNorm();
+              best2 = std::min(best2, d2);
+              sum += double(kernel.W(Real(std::sqrt(d2))));
+            }
         }
     nearest.push_back(best2 <= cell * cell ? std::sqrt(best2) : std::numeric_limits<double>::infinity());
+    out.densest = std::max(out.densest, sum * s3);
   }
   std::nth_element(nearest.begin(), nearest.begin() + nearest.size() / 2, nearest.end());
-  return nearest[nearest.size() / 2];
+  out.median_nearest = nearest[nearest.size() / 2];
+  return out;
 }
 
 /// particles: {file: FILE}: the particles of a PLY frame the runner wrote (positions and
@@ -233,14 +250,29 @@ ExplicitParticles readParticles(const Entry& e, const LoadContext& ctx)
   }
   // The mass of a particle is rest_density * spacing^3 whatever the file: a state saved at
   // another spacing would start compressed or expanded by the cube of the ratio. The file does
-  // not store its spacing, so only an obvious mismatch is pointed out. Measured median nearest
-  // distances at the right spacing: 1.0 on the lattice, 0.97 spacing in water settled for 1 s
-  // (hydrostatic_tank), 0.77-0.82 in a dam break's flow; half or twice the spacing falls outside
-  // [0.55, 1.4] spacings.
+  // not store its spacing. Compressed is what blows up (a frame saved at 3 cm and started at
+  // 3.5 cm: 131 m/s in the first step; at 4.5 cm a density error of 1e7), and the densest
+  // particle's kernel sum shows it: (3.5 / 3)^3 = 1.59 for that start (3.2 cm: 1.22, also a
+  // blow-up), 1.000-1.014 in a dam break's frames at their own spacing; it is warned about above
+  // 1.1 (a spacing 3 % too large). Expanded only spreads and falls; median
+  // nearest distances at the right spacing are 1.0 on the lattice, 0.97 spacing in water settled
+  // for 1 s (hydrostatic_tank), 0.77-0.82 in a dam break's flow, so outside [0.55, 1.4] spacings
+  // the file is obviously another spacing's.
   if (ctx.warnings && !frame.positions.empty() && ctx.spacing > 0.0)
   {
-    const double d = medianNearestDistance(frame.positions, ctx.spacing);  // m
-    if (!(d >= 0.55 * ctx.spacing && d <= 1.4 * ctx.spacing))
+    const Packing packing = measurePacking(frame.positions, ctx.spacing);
+    const double d = packing.median_nearest;  // m
+    if (packing.densest > 1.1 && d >= 0.55 * ctx.spacing)
+    {
+      std::ostringstream note;
+      note << ctx.source << ": " << e.key << " (" << written << "): the densest particles sit at " << packing.densest
+           << " times rest density at the scene's spacing of " << ctx.spacing
+           << " m (as if saved at a spacing of about " << ctx.spacing / std::cbrt(packing.densest)
+           << " m); each particle gets the mass rest_density * spacing^3, so the water starts compressed and will "
+              "burst apart in the first step: use the spacing it was saved with";
+      ctx.warnings->push_back(note.str());
+    }
+    else if (!(d >= 0.55 * ctx.spacing && d <= 1.4 * ctx.spacing))
     {
       std::ostringstream note;
       note << ctx.source << ": " << e.key << " (" << written << "): the particles lie ";
