@@ -1,9 +1,9 @@
 #pragma once
 // The initial fluid: the scene's fluid blocks as cell-centred lattices at the particle spacing,
 // or as the explicit particles of a saved state, without the points that fall inside a solid
-// body, outside every container (of a scene that has one) or too close to an open shell (a cup, a paddle), and without explicit
-// particles outside the domain; lattice points too close to a wall's particles are trimmed
-// (Eq. A21 of docs/method.md).
+// body, outside every container (of a scene that has one) or too close to an open shell (a cup,
+// a paddle), and without explicit particles outside the domain; lattice points too close to a
+// wall's particles are trimmed (Eq. A21 of docs/method.md).
 
 #include <cstddef>
 #include <cstdint>
