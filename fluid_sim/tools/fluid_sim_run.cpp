@@ -382,6 +382,7 @@ int run(const Options& options)
     const auto step_start = Clock::now();
     const StepReport report = sim->step();
     const double wall_ms = 1000.0 * secondsSince(step_start);
+    for (const std::string& notice : report.notices) std::cerr << "warning: " << notice << '\n';
     stats.add(report, wall_ms, io::bodyWrenches(*sim));
     csv.write(stats.steps(), report, wall_ms);
     if (report.unstable)

@@ -531,3 +531,27 @@ TEST(FreeBody, AStartOverlappingAWallOrABodyIsWarnedAbout)
   EXPECT_FALSE(said("'resting'", ""));
   EXPECT_EQ(w.size(), 4u);
 }
+
+TEST(FreeBody, LeavingTheDomainIsSaidOnce)
+{
+  // A free body off the tank falls out of the domain (which removes water, not bodies): one
+  // notice in the step its centre of mass leaves, none before or after.
+  SceneConfig s = test::waterTank(0.02, Vec3d(0.3, 0.3, 0.3), 0.06);
+  s.domain = {Vec3d(-0.1, -0.1, -0.1), Vec3d(0.8, 0.4, 0.4)};
+  s.boundaries.push_back(freeBox("dropped", Vec3d(0.5, 0.1, 0.1), Vec3d(0.6, 0.2, 0.2), 800.0));
+  Simulation sim(s);
+  std::vector<double> said;  // s, times of the notices
+  for (int k = 0; k < 400; ++k)
+  {
+    const StepReport rep = sim.step();
+    for (const std::string& n : rep.notices)
+    {
+      EXPECT_NE(n.find("free body 'dropped' left the domain"), std::string::npos) << n;
+      said.push_back(rep.time);
+    }
+  }
+  ASSERT_EQ(said.size(), 1u);
+  // Released at rest with its centre 0.25 m above the domain's floor: it leaves after
+  // sqrt(2 * 0.25 / g) = 0.226 s, to within a step.
+  EXPECT_NEAR(said[0], std::sqrt(2.0 * 0.25 / 9.81), 0.002);
+}

@@ -147,6 +147,22 @@ struct Simulation::Impl
       rep.unstable = true;
       rep.reason = body_fault;
     }
+    // A free body whose centre of mass left the domain falls on with nothing to hold it (the
+    // domain removes water, not bodies): said once, so that a user sees why it is gone.
+    if (bodies.hasFree())
+    {
+      left_domain.resize(bodies.size(), false);
+      for (std::size_t k = 0; k < bodies.size(); ++k)
+      {
+        if (!bodies[k].free || left_domain[k]) continue;
+        const Vec3d c = bodies[k].centerOfMass();
+        if ((c.array() >= scene.domain.min.array()).all() && (c.array() <= scene.domain.max.array()).all()) continue;
+        left_domain[k] = true;
+        rep.notices.push_back("free body '" + bodies[k].config.name + "' left the domain at t = " + numberText(t) +
+                              " s (its centre of mass at (" + numberText(c.x()) + ", " + numberText(c.y()) + ", " +
+                              numberText(c.z()) + ") m); nothing holds it there");
+      }
+    }
     if (!rep.unstable)
     {
       rep.removed = removeOutsideDomain(fluid, scene.domain);
@@ -215,6 +231,7 @@ struct Simulation::Impl
   std::unique_ptr<ContactResolver> contacts;
   std::vector<SinkTotal> sink_totals;  // per scene sink, since t = 0
   Emitters emitters;                   // the scene's nozzles (none: nothing per step)
+  std::vector<bool> left_domain;       // per body: a free body whose leaving was reported
 };
 
 Simulation::Simulation(const SceneConfig& scene) : impl_(std::make_unique<Impl>(scene)) {}

@@ -448,6 +448,7 @@ void SolverLoop::run()
     if (stepping_on_request) step_lock.lock();  // a step service call waits for these steps under it
     links_.poseBodies(*sim_, pose_stamp, jump);
     const StepReport rep = sim_->step();
+    for (const std::string& notice : rep.notices) ROS_WARN("%s", notice.c_str());
     // What the step service reads, written under the lock (the only writer is this thread).
     if (!step_lock.owns_lock()) step_lock.lock();
     last_status_ = rep.unstable                                            ? "unstable: " + rep.reason

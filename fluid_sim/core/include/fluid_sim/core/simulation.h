@@ -65,7 +65,8 @@ struct StepReport
   // makes one Jacobi sweep over the pairs (Eq. A7).
   int pressure_passes = 0;
   bool unstable = false;
-  std::string reason;  // why unstable
+  std::string reason;                // why unstable
+  std::vector<std::string> notices;  // said once, in the step it happened: a free body that left the domain
   // Wall-clock split of the step, ms.
   double ms_total = 0.0;
   double ms_neighbors = 0.0;
