@@ -511,6 +511,43 @@ TEST(MeshTopology, ClosedOpenAndOrientation)
   EXPECT_FALSE(io::isClosedMesh(inconsistent));
 }
 
+TEST(MeshTopology, CadSeamsSliversFlippedFacesAndPartsMeetingAtAnEdge)
+{
+  // What CAD exports bring: each used to make a closed mesh "open" (a tank lost a fifth of its
+  // water to the fill's outside test, a solid block kept water inside it).
+  TriangleMesh tetra;
+  tetra.vertices = {Vec3d(0, 0, 0), Vec3d(1, 0, 0), Vec3d(0, 1, 0), Vec3d(0, 0, 1)};
+  tetra.triangles = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}};  // outward
+
+  TriangleMesh flipped = tetra;  // one face wound against its neighbours: turned to match
+  std::swap(flipped.triangles[2][1], flipped.triangles[2][2]);
+  EXPECT_TRUE(io::orientOutward(flipped));
+  EXPECT_TRUE(io::isClosedMesh(flipped));
+  EXPECT_NEAR(io::signedVolume(flipped), 1.0 / 6.0, 1e-12);
+
+  TriangleMesh sliver = tetra;  // a zero-area triangle along an edge
+  sliver.vertices.push_back(Vec3d(0.5, 0, 0));
+  sliver.triangles.push_back({0, 4, 1});
+  EXPECT_TRUE(io::isClosedMesh(sliver));
+  EXPECT_EQ(io::borderEdges(sliver), 0u);
+
+  TriangleMesh seam = tetra;  // one face on a copy of a corner 1e-7 away (float rounding)
+  seam.vertices.push_back(Vec3d(0, 0, 1 + 1e-7));
+  seam.triangles[3] = {1, 2, 4};
+  EXPECT_TRUE(io::isClosedMesh(seam));
+  seam.vertices.back().z() = 1.001;  // a real gap (1e-3 of the size) stays one
+  EXPECT_FALSE(io::isClosedMesh(seam));
+  EXPECT_EQ(io::borderEdges(seam), 4u);  // the moved face's two new edges, and the two it left
+
+  TriangleMesh pair = tetra;  // two tetrahedra sharing the edge 1-2, the second inside out
+  for (const Vec3d& v : {Vec3d(1, 1, 0), Vec3d(1, 1, -1)}) pair.vertices.push_back(v);
+  for (std::array<int, 3> t : {std::array<int, 3>{1, 2, 4}, {1, 4, 5}, {1, 5, 2}, {2, 5, 4}})
+    pair.triangles.push_back(t);
+  EXPECT_TRUE(io::orientOutward(pair));
+  EXPECT_TRUE(io::isClosedMesh(pair));
+  EXPECT_NEAR(io::signedVolume(pair), 2.0 / 6.0, 1e-12);  // each part outward, not one flipped for the other
+}
+
 TEST(SceneLoader, InlineMeshIsOrientedAndClassified)
 {
   const std::string scene = kBase + R"yaml(

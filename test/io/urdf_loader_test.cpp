@@ -246,6 +246,20 @@ TEST(UrdfLoader, BadUrdfsGiveClearErrors)
   EXPECT_NE(unknown.find("p.urdf: link 'arm', collision[0]: mesh package://nowhere/arm.stl"), std::string::npos)
       << unknown;
   EXPECT_NE(unknown.find("unknown package 'nowhere'"), std::string::npos) << unknown;
+
+  // Geometry urdfdom cannot read (a mesh scale of one number, a cylinder without a length): it
+  // drops the link's collision elements (the good box too) and says so only on its console, and
+  // the link vanished from the water with a warning that it had no collision geometry.
+  for (const char* geometry : {"<mesh filename='arm.stl' scale='0.001'/>", "<cylinder radius='0.02'/>"})
+  {
+    const std::string bad = std::string("<robot name='r'><link name='arm'><collision><geometry>") + geometry +
+                            "</geometry></collision><collision><geometry><box size='0.1 0.1 0.1'/></geometry>"
+                            "</collision></link></robot>";
+    const std::string dropped = errorOf([&] { io::parseUrdf(bad, "bad.urdf"); });
+    EXPECT_NE(dropped.find("bad.urdf: link 'arm': 2 of its 2 collision elements could not be read"), std::string::npos)
+        << geometry << ": " << dropped;
+    EXPECT_NE(dropped.find("Could not parse collision element for Link [arm]"), std::string::npos) << dropped;
+  }
 }
 
 TEST(UrdfLoader, NonFinitePosesAreErrorsNamingTheLink)

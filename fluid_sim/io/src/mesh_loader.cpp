@@ -356,8 +356,11 @@ std::vector<std::string> surfaceNotes(const std::string& what, bool closed, std:
     notes.push_back(what + ": " + std::to_string(degenerate_triangles) +
                     " degenerate (zero-area) triangles, skipped when sampling");
   if (!closed)
-    notes.push_back(what + ": not a closed surface (" + std::to_string(border_edges) +
-                    " border edges): sampled on the surface as a thin shell; fluid inside it is not removed");
+    notes.push_back(what + ": not a closed surface (" +
+                    (border_edges > 0 ? std::to_string(border_edges) + " border edges"
+                                      : std::string("no border edge, but edges where more than two triangles meet "
+                                                    "are not wound consistently")) +
+                    "): sampled on the surface as a thin shell; fluid inside it is not removed");
   return notes;
 }
 

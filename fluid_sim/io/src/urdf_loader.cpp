@@ -1,10 +1,12 @@
 #include "fluid_sim/io/urdf_loader.h"
 
 #include <console_bridge/console.h>
+#include <tinyxml2.h>
 #include <urdf_parser/urdf_parser.h>
 
 #include <cmath>
 #include <filesystem>
+#include <map>
 #include <mutex>
 #include <set>
 #include <sstream>
@@ -135,6 +137,30 @@ std::vector<std::string> UrdfRobot::collisionLinks() const
   return names;
 }
 
+namespace
+{
+/// The number of <collision> elements of each <link> in the URDF's text: urdfdom leaves out a
+/// collision it cannot read (a mesh scale of one number, a cylinder without a length) and
+/// reports it only on its console, so a link could lose its geometry and vanish from the water.
+std::map<std::string, std::size_t> collisionElements(const std::string& xml)
+{
+  std::map<std::string, std::size_t> counts;
+  tinyxml2::XMLDocument doc;
+  if (doc.Parse(xml.c_str(), xml.size()) != tinyxml2::XML_SUCCESS) return counts;
+  const tinyxml2::XMLElement* robot = doc.FirstChildElement("robot");
+  if (!robot) return counts;
+  for (const auto* link = robot->FirstChildElement("link"); link; link = link->NextSiblingElement("link"))
+  {
+    const char* name = link->Attribute("name");
+    if (!name) continue;
+    std::size_t n = 0;
+    for (const auto* c = link->FirstChildElement("collision"); c; c = c->NextSiblingElement("collision")) ++n;
+    counts[name] = n;
+  }
+  return counts;
+}
+}  // namespace
+
 UrdfRobot parseUrdf(const std::string& xml, const std::string& source, const std::string& base_dir)
 {
   urdf::ModelInterfaceSharedPtr model;
@@ -153,6 +179,7 @@ UrdfRobot parseUrdf(const std::string& xml, const std::string& source, const std
   }
   if (!model) throw ConfigError(source, "not a valid URDF" + (reason.empty() ? std::string() : ": " + reason));
 
+  const std::map<std::string, std::size_t> written_collisions = collisionElements(xml);
   UrdfRobot robot;
   robot.name = model->getName();
   robot.source = source;
@@ -201,6 +228,12 @@ UrdfRobot parseUrdf(const std::string& xml, const std::string& source, const std
       }
       out.collisions.push_back(e);
     }
+    const auto written = written_collisions.find(name);
+    if (written != written_collisions.end() && out.collisions.size() < written->second)
+      throw ConfigError(source, "link '" + name + "': " + std::to_string(written->second - out.collisions.size()) +
+                                    " of its " + std::to_string(written->second) +
+                                    " collision elements could not be read" +
+                                    (reason.empty() ? std::string(" (malformed geometry)") : ": " + reason));
     robot.links.push_back(std::move(out));
   }
   for (const auto& [name, joint] : model->joints_)

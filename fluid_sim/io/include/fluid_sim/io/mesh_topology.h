@@ -11,20 +11,24 @@ namespace fluid_sim
 {
 namespace io
 {
-/// True if every edge is shared by exactly two triangles that run along it in opposite directions:
-/// a closed, consistently oriented surface. Open meshes (a cup, a paddle) and inconsistently
-/// wound ones are not closed.
+/// The topology below sees the mesh with vertices closer than 1e-5 of its bounding box's diagonal
+/// joined and zero-area triangles left out (CAD seams and slivers), the geometry unchanged.
+
+/// True if every edge is run by its triangles as often one way as the other: a closed,
+/// consistently oriented surface (two triangles per edge, or more where closed parts meet at an
+/// edge). Open meshes (a cup, a paddle) and inconsistently wound ones are not closed.
 bool isClosedMesh(const TriangleMesh& mesh);
 
-/// Number of directed edges without an opposite twin: 0 for a closed, consistently wound mesh,
-/// the rim of an open one (a cup's brim) otherwise.
+/// Number of edges of one triangle only: 0 for a closed mesh, the rim of an open one (a cup's
+/// brim) otherwise.
 std::size_t borderEdges(const TriangleMesh& mesh);
 
 /// Volume enclosed by a closed mesh, m^3 (divergence theorem); negative if its normals point inward.
 double signedVolume(const TriangleMesh& mesh);
 
-/// Makes the normals of a closed mesh point outward (flips every triangle if they point inward);
-/// an open mesh is left as it is. Returns isClosedMesh(mesh).
+/// Winds the triangles of each connected part consistently where every edge has two triangles
+/// (a face flipped against its neighbours is turned), then, for a closed mesh, makes each part's
+/// normals point outward (its enclosed volume positive). Returns isClosedMesh(mesh).
 bool orientOutward(TriangleMesh& mesh);
 
 }  // namespace io
