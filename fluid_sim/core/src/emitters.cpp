@@ -48,8 +48,7 @@ Emitters::Emitters(const SceneConfig& scene, const BodySet& bodies)
     : spacing_(scene.spacing)
     , rest_density_(Real(scene.rest_density))
     , max_fluid_particles_(scene.max_fluid_particles)
-    , domain_min_(scene.domain.min)
-    , domain_max_(scene.domain.max)
+    , domain_(scene.domain)
 {
   const double s = scene.spacing;
   // The shortest step the scene allows (s): the fixed one, or the adaptive step's lower bound.
@@ -85,7 +84,7 @@ Emitters::Emitters(const SceneConfig& scene, const BodySet& bodies)
     if (e.body.empty() && e.frame.empty())
     {
       const Vec3d& c = e.pose.translation;
-      if ((c.array() < scene.domain.min.array()).any() || (c.array() > scene.domain.max.array()).any())
+      if (!scene.domain.contains(c))
         throw ConfigError(key + ".pose.xyz", "the nozzle at (" + numberText(c.x()) + ", " + numberText(c.y()) + ", " +
                                                  numberText(c.z()) + ") lies outside the domain");
     }
@@ -224,7 +223,7 @@ std::size_t Emitters::emit(double t, double dt, FluidParticles& fluid, const Bod
       return close;
     };
     const auto blocked = [&](const Vec3d& p) {
-      if ((p.array() < domain_min_.array()).any() || (p.array() > domain_max_.array()).any()) return true;
+      if (!domain_.contains(p)) return true;
       density = mass * double(kernel.W0());
       const bool close = crowded(water, p, water2) | crowded(walls, p, wall2) | crowded(shells, p, shell2);
       if (close || density > (1.0 + kRoomTolerance) * double(rest_density_)) return true;

@@ -156,7 +156,7 @@ struct Simulation::Impl
       {
         if (!bodies[k].free || left_domain[k]) continue;
         const Vec3d c = bodies[k].centerOfMass();
-        if ((c.array() >= scene.domain.min.array()).all() && (c.array() <= scene.domain.max.array()).all()) continue;
+        if (scene.domain.contains(c)) continue;
         left_domain[k] = true;
         rep.notices.push_back("free body '" + bodies[k].config.name + "' left the domain at t = " + numberText(t) +
                               " s (its centre of mass at (" + numberText(c.x()) + ", " + numberText(c.y()) + ", " +

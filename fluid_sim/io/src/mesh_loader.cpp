@@ -243,11 +243,7 @@ MeshFile readMeshFile(const std::string& path, const Vec3d& scale)
       continue;
     }
     if (flip) std::swap(j[1], j[2]);
-    const Vec3d& a = out.mesh.vertices[j[0]];
-    const Vec3d& b = out.mesh.vertices[j[1]];
-    const Vec3d& c = out.mesh.vertices[j[2]];
-    const double longest = std::max({(b - a).norm(), (c - b).norm(), (a - c).norm()});
-    if (!((b - a).cross(c - a).norm() > 1e-12 * longest * longest)) ++out.degenerate_triangles;
+    if (zeroArea(out.mesh.vertices[j[0]], out.mesh.vertices[j[1]], out.mesh.vertices[j[2]])) ++out.degenerate_triangles;
     out.mesh.triangles.push_back(j);
   }
   if (out.degenerate_triangles >= soup.triangles.size())

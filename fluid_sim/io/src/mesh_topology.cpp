@@ -77,11 +77,7 @@ TopologyView topologyView(const TriangleMesh& mesh)
     if (tri[0] < 0 || tri[1] < 0 || tri[2] < 0 || tri[0] >= n || tri[1] >= n || tri[2] >= n) continue;
     const std::array<int, 3> j = {findRoot(parent, tri[0]), findRoot(parent, tri[1]), findRoot(parent, tri[2])};
     if (j[0] == j[1] || j[1] == j[2] || j[2] == j[0]) continue;
-    const Vec3d& a = mesh.vertices[tri[0]];
-    const Vec3d& b = mesh.vertices[tri[1]];
-    const Vec3d& c = mesh.vertices[tri[2]];
-    const double longest = std::max({(b - a).norm(), (c - b).norm(), (a - c).norm()});
-    if (!((b - a).cross(c - a).norm() > 1e-12 * longest * longest)) continue;  // zero area
+    if (zeroArea(mesh.vertices[tri[0]], mesh.vertices[tri[1]], mesh.vertices[tri[2]])) continue;
     view.triangles.push_back(j);
     view.source.push_back(t);
   }
@@ -111,6 +107,12 @@ bool balanced(const std::vector<std::array<int, 3>>& triangles)
   return true;
 }
 }  // namespace
+
+bool zeroArea(const Vec3d& a, const Vec3d& b, const Vec3d& c)
+{
+  const double longest = std::max({(b - a).norm(), (c - b).norm(), (a - c).norm()});
+  return !((b - a).cross(c - a).norm() > 1e-12 * longest * longest);
+}
 
 bool isClosedMesh(const TriangleMesh& mesh)
 {

@@ -888,7 +888,7 @@ SceneConfig readScene(const YAML::Node& root, LoadContext& ctx)
   for (std::size_t i = 0; i < s.probes.size(); ++i)
   {
     const Vec3d& p = s.probes[i].position;
-    if ((p.array() < s.domain.min.array()).any() || (p.array() > s.domain.max.array()).any())
+    if (!s.domain.contains(p))
       s.warnings.push_back("probes[" + std::to_string(i) + "] '" + s.probes[i].name + "': position (" +
                            numberText(p.x()) + ", " + numberText(p.y()) + ", " + numberText(p.z()) +
                            ") lies outside the domain, where there is never water: it will read dry");

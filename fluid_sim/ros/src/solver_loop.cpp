@@ -634,29 +634,14 @@ void SolverLoop::publishFrame(const StepReport& rep, double paced_rtf)
   f.fluid.velocities = sim_->velocities();
   f.fluid.pressures = sim_->pressures();
   f.fluid.densities = sim_->densities();
-  // The boundary cloud goes out again when a body has moved since it last did: a link that tf
-  // holds still, or a free body at rest, is posed every step but sends nothing new. tf2's
-  // interpolation between two equal samples differs in the last bits from step to step (3e-17 m),
-  // so a move is one beyond a millionth of a spacing (the cloud's float positions do not show less).
-  bool any_moved = false;
+  // The bodies' poses, and whether one that moves has moved since the boundary cloud last went
+  // out: it goes out again only then (a link that tf holds still, or a free body at rest, is posed
+  // every step but sends nothing new). tf2's interpolation between two equal samples differs in
+  // the last bits from step to step (3e-17 m), so a move is one beyond a millionth of a spacing
+  // (the cloud's float positions do not show less).
   const double still = 1e-6 * sim_->scene().spacing;  // m
-  if (boundary_poses_.size() != sim_->numBodies()) boundary_poses_.assign(sim_->numBodies(), Pose());
-  for (std::size_t k = 0; k < sim_->numBodies() && !any_moved; ++k)
-  {
-    const BodyInfo b = sim_->body(k);
-    const Pose& was = boundary_poses_[k];
-    any_moved = b.moving && ((b.pose.translation - was.translation).norm() > still ||
-                             (b.pose.rotation.coeffs() - was.rotation.coeffs()).norm() > 1e-9);
-  }
-  f.boundary_valid = opt_.publish_boundary && (boundary_dirty_ || any_moved);
-  if (f.boundary_valid)
-  {
-    f.boundary = sim_->boundaryPositions();
-    f.boundary_pressure = sim_->boundaryPressures();
-    f.body_ranges = body_ranges_;
-    boundary_dirty_ = false;
-    for (std::size_t k = 0; k < sim_->numBodies(); ++k) boundary_poses_[k] = sim_->body(k).pose;
-  }
+  bool any_moved = false;
+  boundary_poses_.resize(sim_->numBodies());
   f.body_poses.resize(sim_->numBodies());
   f.free_bodies.bodies.clear();
   f.free_bodies.header.stamp = f.stamp;
@@ -666,6 +651,18 @@ void SolverLoop::publishFrame(const StepReport& rep, double paced_rtf)
     const BodyInfo b = sim_->body(k);
     f.body_poses[k] = b.pose;
     if (b.free) f.free_bodies.bodies.push_back(toFreeBody(b));
+    const Pose& was = boundary_poses_[k];
+    any_moved = any_moved || (b.moving && ((b.pose.translation - was.translation).norm() > still ||
+                                           (b.pose.rotation.coeffs() - was.rotation.coeffs()).norm() > 1e-9));
+  }
+  f.boundary_valid = opt_.publish_boundary && (boundary_dirty_ || any_moved);
+  if (f.boundary_valid)
+  {
+    f.boundary = sim_->boundaryPositions();
+    f.boundary_pressure = sim_->boundaryPressures();
+    f.body_ranges = body_ranges_;
+    boundary_dirty_ = false;
+    boundary_poses_ = f.body_poses;
   }
   f.wrenches.header.stamp = f.stamp;
   f.wrenches.header.frame_id = opt_.fixed_frame;

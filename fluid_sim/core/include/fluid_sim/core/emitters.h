@@ -81,7 +81,7 @@ private:
   double spacing_;     // m
   Real rest_density_;  // kg/m^3
   std::size_t max_fluid_particles_;
-  Vec3d domain_min_, domain_max_;  // m, the scene's domain: points outside it are left out
+  AxisBox domain_;  // the scene's domain (m): points outside it are left out
   std::vector<Nozzle> nozzles_;
   std::vector<EmitterTotal> totals_;
 };

@@ -57,6 +57,12 @@ struct AxisBox
 {
   Vec3d min = Vec3d::Zero();  // m
   Vec3d max = Vec3d::Zero();  // m
+
+  /// Whether p (m) lies in [min, max], faces included.
+  bool contains(const Vec3d& p) const
+  {
+    return (p.array() >= min.array()).all() && (p.array() <= max.array()).all();
+  }
 };
 
 struct SphereShape

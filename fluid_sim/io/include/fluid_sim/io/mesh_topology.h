@@ -23,6 +23,10 @@ bool isClosedMesh(const TriangleMesh& mesh);
 /// brim) otherwise.
 std::size_t borderEdges(const TriangleMesh& mesh);
 
+/// Whether the triangle (a, b, c) (m) has zero area: twice its area at most 1e-12 of its longest
+/// edge squared (collinear corners; a sliver a CAD export leaves along an edge).
+bool zeroArea(const Vec3d& a, const Vec3d& b, const Vec3d& c);
+
 /// Volume enclosed by a closed mesh, m^3 (divergence theorem); negative if its normals point inward.
 double signedVolume(const TriangleMesh& mesh);
 
