@@ -532,6 +532,25 @@ TEST(FreeBody, AStartOverlappingAWallOrABodyIsWarnedAbout)
   EXPECT_EQ(w.size(), 4u);
 }
 
+TEST(FreeBody, ABodyTooLightForTheCouplingIsWarnedAbout)
+{
+  // 5 kg/m^3 (a unit slip, grams for kilograms) is named with its mean density; 50 kg/m^3 (a
+  // foam float) and a mass given for the same box at 12 kg/m^3 are not.
+  SceneConfig s = test::waterTank(0.02, Vec3d(0.4, 0.4, 0.4), 0.1);
+  s.boundaries.push_back(freeBox("foam", Vec3d(0.05, 0.05, 0.1), Vec3d(0.15, 0.15, 0.15), 50.0));
+  s.boundaries.push_back(freeBox("grams", Vec3d(0.2, 0.2, 0.1), Vec3d(0.3, 0.3, 0.15), 5.0));
+  BoundaryConfig given = freeBox("given", Vec3d(0.2, 0.05, 0.1), Vec3d(0.3, 0.15, 0.15), 0.0);
+  given.dynamic.density = 0.0;
+  given.dynamic.mass = 12.0 * 0.1 * 0.1 * 0.05;  // kg
+  s.boundaries.push_back(given);
+  Simulation sim(s);
+  const std::vector<std::string>& w = sim.startWarnings();
+  ASSERT_EQ(w.size(), 1u) << w.front();
+  EXPECT_NE(w[0].find("free body 'grams'"), std::string::npos) << w[0];
+  EXPECT_NE(w[0].find("mean density of 5 kg/m^3"), std::string::npos) << w[0];
+  EXPECT_NE(w[0].find("boundaries[2].dynamic"), std::string::npos) << w[0];
+}
+
 TEST(FreeBody, LeavingTheDomainIsSaidOnce)
 {
   // A free body off the tank falls out of the domain (which removes water, not bodies): one

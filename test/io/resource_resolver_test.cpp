@@ -65,6 +65,15 @@ TEST(ResourceResolver, PathsAndFileUris)
   EXPECT_EQ(resolveResource("a.stl", "", none), "a.stl");
   EXPECT_EQ(resolveResource("file:///abs/a.stl", "/base", none), "/abs/a.stl");
   EXPECT_EQ(resolveResource("file://rel/a.stl", "/base", none), "/base/rel/a.stl");
+  // Percent escapes are decoded (a CAD export's "my part.stl" arrives as my%20part.stl) and a
+  // localhost authority names this machine.
+  EXPECT_EQ(resolveResource("file:///abs/my%20part%2Bv2.stl", "/base", none), "/abs/my part+v2.stl");
+  EXPECT_EQ(resolveResource("file://localhost/abs/a.stl", "/base", none), "/abs/a.stl");
+  EXPECT_NE(errorOf("file:///abs/50%.stl", "", none).find("malformed percent escape '%.s'"), std::string::npos)
+      << errorOf("file:///abs/50%.stl", "", none);
+  EXPECT_NE(errorOf("file:///abs/a%2", "", none).find("malformed percent escape"), std::string::npos);
+  // A plain path is a file name, not a URI: its % stays.
+  EXPECT_EQ(resolveResource("/abs/100%.stl", "/base", none), "/abs/100%.stl");
   EXPECT_NE(errorOf("http://example.com/a.stl", "", none).find("unsupported URI scheme"), std::string::npos);
   EXPECT_NE(errorOf("", "", none).find("empty file name"), std::string::npos);
 }

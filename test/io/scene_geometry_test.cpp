@@ -219,7 +219,7 @@ TEST(SceneGeometry, BadFilesNameTheKeyAndTheFile)
   dir.write("bad_mesh.urdf", R"(<robot name="r"><link name="arm"><collision name="shell">
     <geometry><mesh filename="arm.stl"/></geometry></collision></link></robot>)");
   expectError(dir, kBase + "boundaries:\n  - urdf: {file: bad_mesh.urdf}\n", "boundaries[0].urdf",
-              {"bad_mesh.urdf: link 'arm', collision[0] ('shell'): mesh arm.stl", "no such file"});
+              {"bad_mesh.urdf: link 'arm', collision[0] ('shell') (URDF line 1): mesh arm.stl", "no such file"});
 }
 
 TEST(SceneGeometry, ParticleBudgetIsCheckedBeforeSampling)

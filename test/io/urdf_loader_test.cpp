@@ -213,7 +213,8 @@ TEST(UrdfLoader, UnknownLinkAndJointNamesAreErrors)
   const std::string joint = errorOf([&] { io::urdfBoundaries(robot, o); });
   EXPECT_NE(joint.find("shapes.urdf: unknown joint 'elbow'"), std::string::npos) << joint;
   o.joint_positions = {{"part_mount", 0.3}};
-  EXPECT_NE(errorOf([&] { io::urdfBoundaries(robot, o); }).find("joint 'part_mount' is fixed"), std::string::npos);
+  EXPECT_NE(errorOf([&] { io::urdfBoundaries(robot, o); }).find("joint 'part_mount' (URDF line 68) is fixed"),
+            std::string::npos);
 }
 
 TEST(UrdfLoader, BadUrdfsGiveClearErrors)
@@ -224,6 +225,10 @@ TEST(UrdfLoader, BadUrdfsGiveClearErrors)
 
   const std::string syntax = errorOf([&] { io::parseUrdf("<robot name='r'><link name='a'>", "broken.urdf"); });
   EXPECT_NE(syntax.find("broken.urdf: not a valid URDF"), std::string::npos) << syntax;
+  // An XML error says the URDF's line (urdfdom reports none).
+  const std::string third =
+      errorOf([&] { io::parseUrdf("<robot name='r'>\n<link name='a'/>\n<link name='b'></robot>", "l3.urdf"); });
+  EXPECT_NE(third.find("l3.urdf: not a valid URDF (URDF line 3)"), std::string::npos) << third;
   const std::string no_root =
       errorOf([&] { io::parseUrdf("<robot name='r'><link name='a'/><link name='b'/></robot>", "two_roots.urdf"); });
   EXPECT_NE(no_root.find("two_roots.urdf: not a valid URDF"), std::string::npos) << no_root;
@@ -236,14 +241,17 @@ TEST(UrdfLoader, BadUrdfsGiveClearErrors)
 </robot>)";
   const io::UrdfRobot robot = io::parseUrdf(xml, dir.file("r.urdf"), dir.path().string());
   const std::string mesh = errorOf([&] { io::urdfBoundaries(robot, fixtureOptions()); });
-  EXPECT_NE(mesh.find("r.urdf: link 'arm', collision[0] ('shell'): mesh meshes/arm.stl"), std::string::npos) << mesh;
+  EXPECT_NE(mesh.find("r.urdf: link 'arm', collision[0] ('shell') (URDF line 2): mesh meshes/arm.stl"),
+            std::string::npos)
+      << mesh;
   EXPECT_NE(mesh.find("no such file"), std::string::npos) << mesh;
 
   const std::string package = R"(<robot name="r">
   <link name="arm"><collision><geometry><mesh filename="package://nowhere/arm.stl"/></geometry></collision></link>
 </robot>)";
   const std::string unknown = errorOf([&] { io::urdfBoundaries(io::parseUrdf(package, "p.urdf"), fixtureOptions()); });
-  EXPECT_NE(unknown.find("p.urdf: link 'arm', collision[0]: mesh package://nowhere/arm.stl"), std::string::npos)
+  EXPECT_NE(unknown.find("p.urdf: link 'arm', collision[0] (URDF line 2): mesh package://nowhere/arm.stl"),
+            std::string::npos)
       << unknown;
   EXPECT_NE(unknown.find("unknown package 'nowhere'"), std::string::npos) << unknown;
 
@@ -256,7 +264,8 @@ TEST(UrdfLoader, BadUrdfsGiveClearErrors)
                             "</geometry></collision><collision><geometry><box size='0.1 0.1 0.1'/></geometry>"
                             "</collision></link></robot>";
     const std::string dropped = errorOf([&] { io::parseUrdf(bad, "bad.urdf"); });
-    EXPECT_NE(dropped.find("bad.urdf: link 'arm': 2 of its 2 collision elements could not be read"), std::string::npos)
+    EXPECT_NE(dropped.find("bad.urdf: link 'arm' (URDF line 1): 2 of its 2 collision elements could not be read"),
+              std::string::npos)
         << geometry << ": " << dropped;
     EXPECT_NE(dropped.find("Could not parse collision element for Link [arm]"), std::string::npos) << dropped;
   }
@@ -275,6 +284,7 @@ TEST(UrdfLoader, NonFinitePosesAreErrorsNamingTheLink)
 </robot>)";
   const std::string far = errorOf([&] { io::urdfBoundaries(io::parseUrdf(chain, "chain.urdf"), fixtureOptions()); });
   EXPECT_NE(far.find("chain.urdf: link 'tip'"), std::string::npos) << far;
+  EXPECT_NE(far.find("joint 'j2' (URDF line 6)"), std::string::npos) << far;
   EXPECT_NE(far.find("not finite"), std::string::npos) << far;
   EXPECT_NE(far.find("inf"), std::string::npos) << far;
 

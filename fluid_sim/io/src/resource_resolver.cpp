@@ -63,6 +63,40 @@ void crawl(const fs::path& folder, int depth_left, PackageIndex& index)
   std::sort(children.begin(), children.end());
   for (const auto& child : children) crawl(child, depth_left - 1, index);
 }
+
+int hexValue(char c)
+{
+  if (c >= '0' && c <= '9') return c - '0';
+  if (c >= 'a' && c <= 'f') return c - 'a' + 10;
+  if (c >= 'A' && c <= 'F') return c - 'A' + 10;
+  return -1;
+}
+
+/// A file URI's path is percent-encoded (RFC 8089 with RFC 3986): exporters and file managers
+/// write a space as %20, which no file name on disk contains literally.
+std::string percentDecoded(const std::string& uri, const std::string& path)
+{
+  std::string out;
+  out.reserve(path.size());
+  for (std::size_t i = 0; i < path.size(); ++i)
+  {
+    if (path[i] != '%')
+    {
+      out += path[i];
+      continue;
+    }
+    const int high = i + 2 < path.size() ? hexValue(path[i + 1]) : -1;
+    const int low = i + 2 < path.size() ? hexValue(path[i + 2]) : -1;
+    if (high < 0 || low < 0)
+      throw ConfigError(
+          uri, "malformed percent escape '" + path.substr(i, 3) + "' in file URI (a literal % is written %25)");
+    const char decoded = static_cast<char>(high * 16 + low);
+    if (decoded == '\0') throw ConfigError(uri, "file URI contains %00");
+    out += decoded;
+    i += 2;
+  }
+  return out;
+}
 }  // namespace
 
 std::string packageNameOf(const std::string& package_xml)
@@ -171,7 +205,11 @@ std::string resolveResource(const std::string& uri, const std::string& base_dir,
   }
   if (startsWith(uri, "file://"))
   {
-    const std::string path = uri.substr(7);
+    std::string path = uri.substr(7);
+    // file://localhost/path names the same file as file:///path (RFC 8089); any other host
+    // is a remote file this loader cannot open.
+    if (startsWith(path, "localhost/")) path = path.substr(9);
+    path = percentDecoded(uri, path);
     if (path.empty()) throw ConfigError(uri, "empty file URI");
     return relativeTo(base_dir, path);
   }

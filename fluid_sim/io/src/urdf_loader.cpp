@@ -92,11 +92,18 @@ void requireFinite(const Pose& p, const std::string& source, const std::string& 
 }
 
 /// "link 'paddle', collision[1] (name 'blade')": where in the URDF a problem is.
+/// " (URDF line N)", or nothing when the line is not known: the scene loader appends the scene's
+/// own line to the same message, so the URDF's says whose it is.
+std::string urdfLine(int line)
+{
+  return line > 0 ? " (URDF line " + std::to_string(line) + ")" : std::string();
+}
+
 std::string elementName(const UrdfLink& link, std::size_t index)
 {
   const UrdfCollision& c = link.collisions[index];
   return "link '" + link.name + "', collision[" + std::to_string(index) + "]" +
-         (c.name.empty() ? std::string() : " ('" + c.name + "')");
+         (c.name.empty() ? std::string() : " ('" + c.name + "')") + urdfLine(c.line ? c.line : link.line);
 }
 
 /// Rotation that maps the coordinate axes onto coordinate axes (within 1e-9): a box so rotated is
@@ -142,22 +149,39 @@ namespace
 /// The number of <collision> elements of each <link> in the URDF's text: urdfdom leaves out a
 /// collision it cannot read (a mesh scale of one number, a cylinder without a length) and
 /// reports it only on its console, so a link could lose its geometry and vanish from the water.
-std::map<std::string, std::size_t> collisionElements(const std::string& xml)
+/// Where the file writes each link, its collision elements and each joint (tinyxml2 line
+/// numbers; urdfdom keeps none), and how many collision elements each link has: urdfdom drops all
+/// of a link's collisions when one cannot be parsed, and says so only on its console.
+struct WrittenElements
 {
-  std::map<std::string, std::size_t> counts;
+  struct Link
+  {
+    int line = 0;
+    std::vector<int> collision_lines;
+  };
+  std::map<std::string, Link> links;
+  std::map<std::string, int> joint_lines;
+};
+
+WrittenElements writtenElements(const std::string& xml)
+{
+  WrittenElements out;
   tinyxml2::XMLDocument doc;
-  if (doc.Parse(xml.c_str(), xml.size()) != tinyxml2::XML_SUCCESS) return counts;
+  if (doc.Parse(xml.c_str(), xml.size()) != tinyxml2::XML_SUCCESS) return out;
   const tinyxml2::XMLElement* robot = doc.FirstChildElement("robot");
-  if (!robot) return counts;
+  if (!robot) return out;
   for (const auto* link = robot->FirstChildElement("link"); link; link = link->NextSiblingElement("link"))
   {
     const char* name = link->Attribute("name");
     if (!name) continue;
-    std::size_t n = 0;
-    for (const auto* c = link->FirstChildElement("collision"); c; c = c->NextSiblingElement("collision")) ++n;
-    counts[name] = n;
+    WrittenElements::Link& entry = out.links[name];
+    entry.line = link->GetLineNum();
+    for (const auto* c = link->FirstChildElement("collision"); c; c = c->NextSiblingElement("collision"))
+      entry.collision_lines.push_back(c->GetLineNum());
   }
-  return counts;
+  for (const auto* joint = robot->FirstChildElement("joint"); joint; joint = joint->NextSiblingElement("joint"))
+    if (const char* name = joint->Attribute("name")) out.joint_lines[name] = joint->GetLineNum();
+  return out;
 }
 }  // namespace
 
@@ -177,9 +201,16 @@ UrdfRobot parseUrdf(const std::string& xml, const std::string& source, const std
     }
     if (reason.empty()) reason = console.errors();
   }
-  if (!model) throw ConfigError(source, "not a valid URDF" + (reason.empty() ? std::string() : ": " + reason));
+  if (!model)
+  {
+    // An XML error has a line urdfdom does not report: tinyxml2's own parse finds it.
+    tinyxml2::XMLDocument doc;
+    std::string where;
+    if (doc.Parse(xml.c_str(), xml.size()) != tinyxml2::XML_SUCCESS) where = urdfLine(doc.ErrorLineNum());
+    throw ConfigError(source, "not a valid URDF" + where + (reason.empty() ? std::string() : ": " + reason));
+  }
 
-  const std::map<std::string, std::size_t> written_collisions = collisionElements(xml);
+  const WrittenElements written = writtenElements(xml);
   UrdfRobot robot;
   robot.name = model->getName();
   robot.source = source;
@@ -190,6 +221,10 @@ UrdfRobot parseUrdf(const std::string& xml, const std::string& source, const std
   {
     UrdfLink out;
     out.name = name;
+    const auto written_link = written.links.find(name);
+    const std::size_t written_count =
+        written_link == written.links.end() ? 0 : written_link->second.collision_lines.size();
+    if (written_link != written.links.end()) out.line = written_link->second.line;
     std::vector<urdf::CollisionSharedPtr> collisions = link->collision_array;
     if (collisions.empty() && link->collision) collisions.push_back(link->collision);
     for (const auto& c : collisions)
@@ -197,8 +232,12 @@ UrdfRobot parseUrdf(const std::string& xml, const std::string& source, const std
       if (!c || !c->geometry) continue;
       UrdfCollision e;
       e.name = c->name;
+      // urdfdom keeps a link's collisions in the file's order (all or none of them: below).
+      if (out.collisions.size() < written_count) e.line = written_link->second.collision_lines[out.collisions.size()];
       e.origin = toPose(c->origin);
-      requireFinite(e.origin, source, "link '" + name + "', collision[" + std::to_string(out.collisions.size()) + "]");
+      requireFinite(e.origin, source,
+                    "link '" + name + "', collision[" + std::to_string(out.collisions.size()) + "]" +
+                        urdfLine(e.line ? e.line : out.line));
       switch (c->geometry->type)
       {
         case urdf::Geometry::BOX:
@@ -228,11 +267,10 @@ UrdfRobot parseUrdf(const std::string& xml, const std::string& source, const std
       }
       out.collisions.push_back(e);
     }
-    const auto written = written_collisions.find(name);
-    if (written != written_collisions.end() && out.collisions.size() < written->second)
-      throw ConfigError(source, "link '" + name + "': " + std::to_string(written->second - out.collisions.size()) +
-                                    " of its " + std::to_string(written->second) +
-                                    " collision elements could not be read" +
+    if (out.collisions.size() < written_count)
+      throw ConfigError(source, "link '" + name + "'" + urdfLine(out.line) + ": " +
+                                    std::to_string(written_count - out.collisions.size()) + " of its " +
+                                    std::to_string(written_count) + " collision elements could not be read" +
                                     (reason.empty() ? std::string(" (malformed geometry)") : ": " + reason));
     robot.links.push_back(std::move(out));
   }
@@ -240,6 +278,9 @@ UrdfRobot parseUrdf(const std::string& xml, const std::string& source, const std
   {
     UrdfJoint j;
     j.name = name;
+    const auto line = written.joint_lines.find(name);
+    if (line != written.joint_lines.end()) j.line = line->second;
+    const std::string joint_name = "joint '" + name + "'" + urdfLine(j.line);
     switch (joint->type)
     {
       case urdf::Joint::REVOLUTE:
@@ -264,10 +305,10 @@ UrdfRobot parseUrdf(const std::string& xml, const std::string& source, const std
     j.parent = joint->parent_link_name;
     j.child = joint->child_link_name;
     j.origin = toPose(joint->parent_to_joint_origin_transform);
-    requireFinite(j.origin, source, "joint '" + name + "'");
+    requireFinite(j.origin, source, joint_name);
     const Vec3d axis = toVec(joint->axis);
     const double axis_norm = axis.stableNorm();
-    if (!std::isfinite(axis_norm)) throw ConfigError(source, "joint '" + name + "': axis is not a finite direction");
+    if (!std::isfinite(axis_norm)) throw ConfigError(source, joint_name + ": axis is not a finite direction");
     j.axis = axis_norm > 0.0 ? Vec3d(axis / axis_norm) : Vec3d::UnitX();
     if (joint->limits && (j.type == UrdfJointType::Revolute || j.type == UrdfJointType::Prismatic))
     {
@@ -281,7 +322,7 @@ UrdfRobot parseUrdf(const std::string& xml, const std::string& source, const std
       j.mimic_multiplier = joint->mimic->multiplier;
       j.mimic_offset = joint->mimic->offset;
       if (!std::isfinite(j.mimic_multiplier) || !std::isfinite(j.mimic_offset))
-        throw ConfigError(source, "joint '" + name + "': mimic multiplier and offset must be finite");
+        throw ConfigError(source, joint_name + ": mimic multiplier and offset must be finite");
     }
     robot.joints.push_back(j);
   }
@@ -305,10 +346,11 @@ std::map<std::string, Pose> linkPoses(const UrdfRobot& robot, const JointPositio
       throw ConfigError(robot.source,
                         "unknown joint '" + name + "' (joints: " + joinNames(joint_names, ", ", "none") + ")");
     if (j->type == UrdfJointType::Fixed || j->type == UrdfJointType::Floating || j->type == UrdfJointType::Planar)
-      throw ConfigError(robot.source, "joint '" + name + "' is " +
+      throw ConfigError(robot.source, "joint '" + name + "'" + urdfLine(j->line) + " is " +
                                           (j->type == UrdfJointType::Fixed ? "fixed" : "floating or planar") +
                                           ": it has no single position to set");
-    if (!std::isfinite(value)) throw ConfigError(robot.source, "joint '" + name + "': position must be finite");
+    if (!std::isfinite(value))
+      throw ConfigError(robot.source, "joint '" + name + "'" + urdfLine(j->line) + ": position must be finite");
   }
   // Position of a joint: given, else its mimic leader's (transformed), else 0.
   const auto position = [&](const UrdfJoint& joint) {
@@ -354,8 +396,9 @@ std::map<std::string, Pose> linkPoses(const UrdfRobot& robot, const JointPositio
         poses[j.child] = poses[parent] * j.origin * motion;
         // Finite origins and positions can still add up to infinity along a chain.
         if (!finite(poses[j.child]))
-          throw ConfigError(robot.source, "link '" + j.child + "': its pose (through joint '" + j.name + "' at " +
-                                              std::to_string(q) + ") is not finite (" + describe(poses[j.child]) + ")");
+          throw ConfigError(robot.source, "link '" + j.child + "': its pose (through joint '" + j.name + "'" +
+                                              urdfLine(j.line) + " at " + std::to_string(q) + ") is not finite (" +
+                                              describe(poses[j.child]) + ")");
         next.push_back(j.child);
       }
     frontier.swap(next);

@@ -29,6 +29,7 @@ struct UrdfCollision
   };
   Type type = Type::Box;
   std::string name;             // the element's name attribute ("" if none)
+  int line = 0;                 // the element's line in the URDF file (0: not known)
   Pose origin;                  // element frame in the link frame (<origin xyz rpy>)
   Vec3d size = Vec3d::Zero();   // m, box edge lengths
   double radius = 0.0;          // m, cylinder and sphere
@@ -40,6 +41,7 @@ struct UrdfCollision
 struct UrdfLink
 {
   std::string name;
+  int line = 0;  // the <link> element's line in the URDF file (0: not known)
   std::vector<UrdfCollision> collisions;
 };
 
@@ -56,6 +58,7 @@ enum class UrdfJointType
 struct UrdfJoint
 {
   std::string name;
+  int line = 0;  // the <joint> element's line in the URDF file (0: not known)
   UrdfJointType type = UrdfJointType::Fixed;
   std::string parent;           // parent link
   std::string child;            // child link
