@@ -229,17 +229,31 @@ TEST(SceneGeometry, ParticleBudgetIsCheckedBeforeSampling)
   // A 1 m cube at 2 cm: 6 m^2 / (0.02 m)^2 * 2 = 30000 estimated particles.
   const std::string yaml = kBase + "boundaries:\n  - name: big\n    mesh: {file: " + mesh + "}\n";
   expectError(dir, "max_boundary_particles: 20000\n" + yaml, "boundaries[0]",
-              {"'big' would need about 30000 boundary particles", "max_boundary_particles = 20000"});
+              {"'big' (its mesh spans 1 x 1 x 1 m) would need about 30000 boundary particles",
+               "max_boundary_particles = 20000"});
   EXPECT_EQ(errorOf(dir, "max_boundary_particles: 40000\n" + yaml), "");
   // Primitives and URDF links too, and the default budget (2,000,000 per body).
   expectError(
       dir,
       kBase + "boundaries:\n  - box: {min: [-0.9, -0.9, -0.9], max: [0.9, 0.9, 0.9]}\n    sample_spacing: 0.0005\n",
       "boundaries[0]", {"boundary particles", "max_boundary_particles = 2000000"});
+  expectError(
+      dir,
+      "max_boundary_particles: 100\n" + kBase +
+          "boundaries:\n  - urdf: {file: package://fluid_sim_test_pkg/urdf/shapes.urdf, links: [base]}\n",
+      "boundaries[0]",
+      {"'base' (link 'base' of package://fluid_sim_test_pkg/urdf/shapes.urdf", "(URDF line 5)) would need about"});
+  // A URDF link's meshes and their scales are named.
   expectError(dir,
-              "max_boundary_particles: 100\n" + kBase +
-                  "boundaries:\n  - urdf: {file: package://fluid_sim_test_pkg/urdf/shapes.urdf, links: [base]}\n",
-              "boundaries[0]", {"'base' would need about"});
+              "max_boundary_particles: 10\n" + kBase +
+                  "boundaries:\n  - urdf: {file: package://fluid_sim_test_pkg/urdf/shapes.urdf, links: [part]}\n",
+              "boundaries[0]",
+              {"'part' (its mesh spans",
+               "(URDF line 24); meshes package://fluid_sim_test_pkg/meshes/pyramid.obj at "
+               "scale 0.1 0.2 0.3) would need about"});
+  // A mesh's size is said: a CAD export in millimetres read as metres is the usual cause.
+  expectError(dir, "max_boundary_particles: 100\n" + yaml, "boundaries[0]",
+              {"'big' (its mesh spans 1 x 1 x 1 m) would need", "scale 0.001"});
   expectError(dir, "max_boundary_particles: 0\n" + kBase, "max_boundary_particles", {"whole number >= 1"});
 }
 

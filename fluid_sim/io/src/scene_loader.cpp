@@ -468,20 +468,36 @@ ContactConfig readContacts(const Entry& e)
   return c;
 }
 
-/// Refuses a body whose sampling would exceed the particle budget, naming the scene entry.
-void checkBudget(const Entry& e, const BoundaryConfig& b, const LoadContext& ctx)
+/// Refuses a body whose sampling would exceed the particle budget, naming the scene entry, and
+/// for a mesh its size (a CAD export in millimetres read as metres is the usual cause) and
+/// `about` (a URDF link's file and meshes).
+void checkBudget(const Entry& e, const BoundaryConfig& b, const LoadContext& ctx, const std::string& about = "")
 {
   const double ss = sampleSpacing(b, ctx.spacing);  // m
   if (!(ss > 0.0)) return;                          // validate() reports the spacing
   const double estimate = estimateBoundaryParticles(b, ss, ctx.spacing);
-  if (!(estimate <= double(ctx.max_boundary_particles)))
-    throw ConfigError(e.key,
-                      "'" + b.name + "' would need about " + estimateText(estimate) +
-                          " boundary particles at sample spacing " + std::to_string(ss) +
-                          " m, more than max_boundary_particles = " + std::to_string(ctx.max_boundary_particles) +
-                          "; use a coarser spacing or sample_spacing, a smaller body, or raise "
-                          "max_boundary_particles" +
-                          lineOf(e.node));
+  if (estimate <= double(ctx.max_boundary_particles)) return;
+  std::string size;
+  if (b.type == ShapeType::Mesh && !b.mesh.vertices.empty())
+  {
+    Vec3d lo = Vec3d::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
+    for (const Vec3d& v : b.mesh.vertices)
+    {
+      lo = lo.cwiseMin(v);
+      hi = hi.cwiseMax(v);
+    }
+    const Vec3d extent = hi - lo;
+    size = " (its mesh spans " + numberText(extent.x()) + " x " + numberText(extent.y()) + " x " +
+           numberText(extent.z()) + " m" + about + ")";
+  }
+  else if (!about.empty())
+    size = " (" + about.substr(2) + ")";
+  throw ConfigError(e.key, "'" + b.name + "'" + size + " would need about " + estimateText(estimate) +
+                               " boundary particles at sample spacing " + std::to_string(ss) +
+                               " m, more than max_boundary_particles = " + std::to_string(ctx.max_boundary_particles) +
+                               "; use a coarser spacing or sample_spacing, a smaller body (a mesh in millimetres "
+                               "needs scale 0.001), or raise max_boundary_particles" +
+                               lineOf(e.node));
 }
 
 /// One entry of `regions`: {name, box: {min, max}, pose: {xyz, rpy}}, {name, sphere: {center,
@@ -621,9 +637,10 @@ SpillConfig readSpill(const Entry& e)
 
 /// urdf: {file, links, joint_positions, free_links}: one body per selected link, each with the
 /// entry's common keys (`common`: inside, pose of the root link, motion, sample_spacing, external,
-/// offset); the links named in free_links are free bodies (their `dynamic`).
+/// offset); the links named in free_links are free bodies (their `dynamic`). `boundary` is the
+/// whole `boundaries[i]` entry, which the particle budget's message names.
 std::vector<BoundaryConfig> readUrdf(const Entry& e, const BoundaryConfig& common, double finest_spacing,
-                                     const LoadContext& ctx)
+                                     const LoadContext& ctx, const Entry& boundary)
 {
   MapReader r(e);
   const Entry file = r.require("file");
@@ -748,6 +765,23 @@ std::vector<BoundaryConfig> readUrdf(const Entry& e, const BoundaryConfig& commo
     }
     body->dynamic = link.dynamic;
   }
+  for (const BoundaryConfig& body : bodies)
+  {
+    // Which of the link's collision elements make it so large: their meshes and scales.
+    std::string meshes;
+    if (const UrdfLink* link = robot.link(body.name))
+      for (const UrdfCollision& c : link->collisions)
+        if (c.type == UrdfCollision::Type::Mesh)
+          meshes += std::string(meshes.empty() ? "; meshes " : ", ") + c.filename +
+                    (c.scale == Vec3d::Ones() ? std::string()
+                                              : " at scale " + numberText(c.scale.x()) + " " + numberText(c.scale.y()) +
+                                                    " " + numberText(c.scale.z()));
+    const UrdfLink* link = robot.link(body.name);
+    checkBudget(boundary, body, ctx,
+                "; link '" + body.name + "' of " + urdf_name +
+                    (link && link->line > 0 ? " (URDF line " + std::to_string(link->line) + ")" : std::string()) +
+                    meshes);
+  }
   return bodies;
 }
 
@@ -809,9 +843,7 @@ std::vector<BoundaryConfig> readBoundary(const Entry& e, std::size_t index, cons
     const double finest = b.sample_spacing > 0.0                   ? std::min(b.sample_spacing, ctx.spacing)
                           : b.sample_spacing == kAutoSampleSpacing ? 0.5 * ctx.spacing
                                                                    : ctx.spacing;
-    std::vector<BoundaryConfig> bodies = readUrdf(shape, b, finest, ctx);
-    for (const auto& body : bodies) checkBudget(e, body, ctx);
-    return bodies;
+    return readUrdf(shape, b, finest, ctx, e);
   }
   r.read("name", b.name);
   if (auto dynamic = r.get("dynamic")) b.dynamic = readDynamic(*dynamic);
