@@ -535,6 +535,9 @@ TEST(MeshTopology, CadSeamsSliversFlippedFacesAndPartsMeetingAtAnEdge)
   seam.vertices.push_back(Vec3d(0, 0, 1 + 1e-7));
   seam.triangles[3] = {1, 2, 4};
   EXPECT_TRUE(io::isClosedMesh(seam));
+  seam.vertices.back().z() = 1 + 5e-5;  // a seam between faces exported apart: 3e-5 of the diagonal
+  EXPECT_TRUE(io::isClosedMesh(seam));
+  EXPECT_EQ(io::borderEdges(seam), 0u);
   seam.vertices.back().z() = 1.001;  // a real gap (1e-3 of the size) stays one
   EXPECT_FALSE(io::isClosedMesh(seam));
   EXPECT_EQ(io::borderEdges(seam), 4u);  // the moved face's two new edges, and the two it left

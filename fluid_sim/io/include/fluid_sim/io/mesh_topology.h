@@ -12,7 +12,9 @@ namespace fluid_sim
 namespace io
 {
 /// The topology below sees the mesh with vertices closer than 1e-5 of its bounding box's diagonal
-/// joined and zero-area triangles left out (CAD seams and slivers), the geometry unchanged.
+/// joined, then vertices on the rim of a hole within 1e-4 of it joined with other rim vertices
+/// no edge joins them to (a seam between separately exported faces), and zero-area triangles left
+/// out (CAD slivers), the geometry unchanged.
 
 /// True if every edge is run by its triangles as often one way as the other: a closed,
 /// consistently oriented surface (two triangles per edge, or more where closed parts meet at an
