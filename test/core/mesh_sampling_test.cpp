@@ -109,6 +109,18 @@ TEST(MeshSampling, BoxMeshGetsTheBoxPrimitiveLattice)
     EXPECT_EQ(estimateBoundaryParticles(prim, s, s), double(sampleBoundary(prim, s, s).size()));
     EXPECT_GE(estimateBoundaryParticles(mesh, s, s), double(sampleBoundary(mesh, s, s).size()));
   }
+  // A mesh file holds float32 corners: a 0.3 m tank is 0.30000001 m wide, and offset out by half
+  // a spacing 16.0000006 spacings. It still gets the primitive's 16 pieces a side (it got 17, a
+  // denser layer: 1,736 particles for the primitive's 1,538).
+  BoundaryConfig prim, mesh;
+  prim.type = ShapeType::Box;
+  prim.box = {Vec3d::Zero(), Vec3d::Constant(0.3)};
+  mesh.type = ShapeType::Mesh;
+  mesh.mesh = boxMesh(Vec3d::Zero(), Vec3d::Constant(double(0.3f)));
+  prim.inside = mesh.inside = true;
+  const std::vector<Vec3d> from_file = sampleBoundary(mesh, s, s);
+  EXPECT_EQ(from_file.size(), 1538u);
+  EXPECT_EQ(from_file.size(), sampleBoundary(prim, s, s).size());
 }
 
 TEST(MeshSampling, OffsetMeshMitresCorners)
