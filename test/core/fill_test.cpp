@@ -310,6 +310,107 @@ TEST(StillFill, ARelaxationCutShortIsReportedUnsettled)
   EXPECT_GT(cut.fillReport().final_density_error, scene.fill.relax_tolerance);
 }
 
+// The relaxation never carries a particle through a wall: with single-term mirroring, whose wall
+// term is the weakest, the rotating-sphere scene started with particles up to 1.5 spacings outside
+// its sphere (one fell out of the domain at 2.5 cm).
+TEST(StillFill, TheRelaxationKeepsTheWaterInsideItsContainer)
+{
+  for (const BoundaryPressureMethod method : {BoundaryPressureMethod::Mirroring, BoundaryPressureMethod::Mls})
+  {
+    SceneConfig scene = halfSphere(0.3, 0.025);
+    scene.solver.boundary_pressure = method;
+    Simulation sim(scene);
+    EXPECT_TRUE(sim.fillReport().relaxed);
+    double farthest = 0.0;  // m
+    for (const Vec3& x : sim.positions()) farthest = std::max(farthest, double(x.norm()));
+    EXPECT_LE(farthest, 0.3) << "method " << int(method);
+  }
+}
+
+// With fill.relax off the lattice is still measured: a summary read 0 % (and "settled") for a
+// lattice 26 % over rest density.
+TEST(StillFill, WithTheRelaxationOffTheLatticeIsStillMeasured)
+{
+  SceneConfig scene = halfSphere(0.2, 0.025);
+  scene.fill.relax = false;
+  Simulation sim(scene);
+  EXPECT_FALSE(sim.fillReport().relaxed);
+  EXPECT_EQ(sim.fillReport().relax_steps, 0);
+  EXPECT_GT(sim.fillReport().initial_density_error, scene.fill.relax_tolerance);
+  EXPECT_EQ(sim.fillReport().final_density_error, sim.fillReport().initial_density_error);
+  EXPECT_FALSE(sim.fillReport().settled);
+  // Measured, not moved: every particle on its lattice point, at rest.
+  for (const Vec3& x : sim.positions()) EXPECT_LT(offLattice(x, scene.fluid[0].box, scene.spacing), 1e-6);
+  for (const Vec3& v : sim.velocities()) EXPECT_TRUE(v.isZero(0));
+}
+
+// Blocks that overlap make their union, each point once: a block listed twice started at twice
+// rest density (the relaxation then pushed water through the tank's walls and the run blew up),
+// half-overlapping ones with a third too much water.
+TEST(StillFill, OverlappingBlocksMakeTheirUnion)
+{
+  const auto scene = [](std::vector<AxisBox> blocks) {
+    SceneConfig s;
+    s.spacing = 0.02;
+    s.domain = {Vec3d(-0.1, -0.1, -0.1), Vec3d(0.4, 0.3, 0.4)};
+    BoundaryConfig tank;
+    tank.name = "tank";
+    tank.box = {Vec3d(0, 0, 0), Vec3d(0.3, 0.2, 0.3)};
+    tank.inside = true;
+    s.boundaries.push_back(tank);
+    for (const AxisBox& b : blocks)
+    {
+      FluidBlockConfig f;
+      f.box = b;
+      s.fluid.push_back(f);
+    }
+    return s;
+  };
+  const AxisBox whole{Vec3d(0, 0, 0), Vec3d(0.3, 0.2, 0.1)};  // 15 x 10 x 5 = 750 points
+  const AxisBox left{Vec3d(0, 0, 0), Vec3d(0.2, 0.2, 0.1)}, right{Vec3d(0.1, 0, 0), Vec3d(0.3, 0.2, 0.1)};
+  // Touching off the lattice's step (7 and 8 layers centred in 0.15 and 0.16 m, 0.75 s apart at
+  // the seam): both kept, as before.
+  const AxisBox a{Vec3d(0, 0, 0), Vec3d(0.15, 0.2, 0.1)}, b{Vec3d(0.14, 0, 0), Vec3d(0.3, 0.2, 0.1)};
+  for (const auto& [blocks, overlapped] : std::vector<std::pair<std::vector<AxisBox>, std::size_t>>{
+           {{whole, whole}, 750u}, {{left, right}, 250u}, {{a, b}, 0u}, {{whole}, 0u}})
+  {
+    const SceneConfig s = scene(blocks);
+    Simulation sim(s);
+    EXPECT_EQ(sim.numFluidParticles(), 750u) << blocks.size() << " blocks, overlapped " << overlapped;
+    EXPECT_EQ(sim.fillReport().overlapped, overlapped);
+    EXPECT_EQ(sim.removedAtStart(), overlapped);
+    EXPECT_LT(sim.fillReport().final_density_error, s.fill.relax_tolerance);
+    // No two particles nearer than half a spacing, none outside the tank.
+    const std::vector<Vec3>& x = sim.positions();
+    for (std::size_t i = 0; i < x.size(); ++i)
+    {
+      EXPECT_TRUE((x[i].array() > Real(0)).all() && x[i].x() < Real(0.3) && x[i].y() < Real(0.2)) << x[i].transpose();
+      for (std::size_t j = i + 1; j < x.size(); ++j)
+        ASSERT_GT((x[i] - x[j]).norm(), Real(0.5 * s.spacing)) << i << " " << j;
+    }
+  }
+}
+
+// A block holds whole spacings per axis: a 3.9 cm layer at 2 cm is one layer, 2 cm of water. The
+// remainder was left empty without a word.
+TEST(StillFill, ABlockLeftEmptyByItsRemainderIsWarnedAbout)
+{
+  SceneConfig s;
+  s.spacing = 0.02;
+  s.domain = {Vec3d(-0.1, -0.1, -0.1), Vec3d(0.4, 0.3, 0.4)};
+  FluidBlockConfig thin, exact;
+  thin.box = {Vec3d(0, 0, 0), Vec3d(0.3, 0.2, 0.039)};
+  exact.box = {Vec3d(0, 0, 0.1), Vec3d(0.3, 0.2, 0.2)};
+  s.fluid = {exact, thin};
+  Simulation sim(s);
+  const std::vector<std::string>& w = sim.startWarnings();
+  ASSERT_EQ(w.size(), 1u);
+  EXPECT_NE(w[0].find("fluid[1].box"), std::string::npos) << w[0];
+  EXPECT_NE(w[0].find("0.039 m along z holds 1 layer (0.02 m)"), std::string::npos) << w[0];
+  EXPECT_NE(w[0].find("51 % of its"), std::string::npos) << w[0];
+  EXPECT_EQ(sim.numFluidParticles(), 15u * 10u * 5u + 15u * 10u);
+}
+
 // Water may lie in any container of the scene: a closed cup standing in a tank, each with its
 // water, and two tanks side by side. A point outside any one container used to be dropped, so
 // the cup dropped all of the tank's water (silently) and a second tank made the scene fail.

@@ -206,6 +206,15 @@ TEST(ParticlesKey, AFrameSavedAtAnotherSpacingIsWarnedAbout)
   EXPECT_NE(close[0].find("as if saved at a spacing of about 0.0179"), std::string::npos) << close[0];
   writeFrame(dir.file("near.ply"), lattice(7, 0.0196, Vec3d(0.03, 0.03, 0.03)));  // 2 % off: 1.06
   EXPECT_TRUE(warnings("near.ply").empty());
+  // 1.3 spacings apart (a 2 cm frame started at 1.5 cm): the nearest distances pass, the densest
+  // particle reads (1/1.3)^3 = 0.46 of rest density: 46 % of the water's mass.
+  writeFrame(dir.file("sparse.ply"), lattice(7, 0.026, Vec3d(0.03, 0.03, 0.03)));
+  const std::vector<std::string> sparse = warnings("sparse.ply");
+  ASSERT_EQ(sparse.size(), 1u);
+  EXPECT_NE(sparse[0].find("the densest particles sit at only 0.4"), std::string::npos) << sparse[0];
+  EXPECT_NE(sparse[0].find("as if saved at a spacing of about 0.02"), std::string::npos) << sparse[0];
+  writeFrame(dir.file("loose.ply"), lattice(7, 0.021, Vec3d(0.03, 0.03, 0.03)));  // 5 % apart: 0.86
+  EXPECT_TRUE(warnings("loose.ply").empty());
 }
 
 /// Differences between two runs' particles: position (m) and velocity (m/s), largest and rms.

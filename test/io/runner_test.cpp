@@ -107,6 +107,17 @@ TEST(Runner, OverridesAndDuration)
   EXPECT_EQ(summary["method"], "sph");
   EXPECT_EQ(summary["overrides"].size(), 3u);
   EXPECT_FALSE(fs::exists(dir.path() / "result" / "frames"));
+
+  // A duration that is no whole number of steps ends on it: the last step is taken short (an
+  // adaptive run asked for 0.6 s simulated 0.600854 s).
+  const RunResult fixed = run(dir, "tiny.yaml --out odd --duration 0.041 --set time_step.fixed=0.004");
+  ASSERT_EQ(fixed.exit_code, 0) << fixed.err;
+  const nlohmann::json odd = readJson(dir.file("odd/summary.json"));
+  EXPECT_EQ(odd["steps"], 11);
+  EXPECT_NEAR(odd["simulated_time_s"].get<double>(), 0.041, 1e-12);
+  const RunResult adaptive = run(dir, "tiny.yaml --out cfl --duration 0.1 --set 'time_step={cfl: 0.4}'");
+  ASSERT_EQ(adaptive.exit_code, 0) << adaptive.err;
+  EXPECT_NEAR(readJson(dir.file("cfl/summary.json"))["simulated_time_s"].get<double>(), 0.1, 1e-12);
 }
 
 TEST(Runner, SurfaceWritesAnObjBesideEveryFrameWithItsNumber)

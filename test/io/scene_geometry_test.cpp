@@ -155,6 +155,21 @@ boundaries:
   for (const auto& w : s.warnings)
     noted = noted || w.find("link 'marker' has no collision geometry") != std::string::npos;
   EXPECT_TRUE(noted);
+
+  // The open cup is warned about as a solid, not with `offset: none` (the thin shell meant).
+  const auto warnedOpen = [&](const std::string& extra) {
+    const SceneConfig c = io::loadScene(
+        dir.write("cup.yaml", kBase +
+                                  "boundaries:\n  - urdf:\n      file: package://fluid_sim_test_pkg/urdf/shapes.urdf\n"
+                                  "      links: [cup]\n" +
+                                  extra),
+        {}, fixtureOptions());
+    for (const auto& w : c.warnings)
+      if (w.find("link 'cup': not a closed surface") != std::string::npos) return true;
+    return false;
+  };
+  EXPECT_TRUE(warnedOpen(""));
+  EXPECT_FALSE(warnedOpen("    offset: none\n"));
 }
 
 TEST(SceneGeometry, UrdfFromRosPackagePathByDefault)

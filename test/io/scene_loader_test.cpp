@@ -69,12 +69,12 @@ boundaries:
     motion: {angular_velocity: [0, 0.73, 0], about: [0, 0, 0.1], linear_velocity: [0.1, 0, 0], start: 0.5, ramp: 0.25}
     pose: {xyz: [0.1, 0.2, 0.3], rpy: [0, 0, 1.5707963267948966]}
     sample_spacing: 0.01
-    external: true
   - name: part
     mesh:
       vertices: [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]]
       triangles: [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]]
     offset: none
+    external: true
 output: {frame_interval: 0.02}
 contacts: {friction: 0.3}
 )yaml";
@@ -210,7 +210,7 @@ TEST(SceneLoader, FullExampleParses)
   EXPECT_TRUE(drum.pose.translation.isApprox(Vec3d(0.1, 0.2, 0.3)));
   EXPECT_TRUE(drum.pose.apply(Vec3d(1, 0, 0)).isApprox(Vec3d(0.1, 1.2, 0.3), 1e-12));  // yaw 90 degrees
   EXPECT_DOUBLE_EQ(drum.sample_spacing, 0.01);
-  EXPECT_TRUE(drum.externally_posed);
+  EXPECT_FALSE(drum.externally_posed);  // a scripted body is not also posed from outside
 
   const BoundaryConfig& part = s.boundaries[3];
   EXPECT_EQ(part.type, ShapeType::Mesh);
@@ -218,6 +218,7 @@ TEST(SceneLoader, FullExampleParses)
   EXPECT_EQ(part.mesh.triangles.size(), 4u);
   EXPECT_TRUE(part.mesh_closed);
   EXPECT_EQ(part.mesh_offset, SurfaceOffset::None);
+  EXPECT_TRUE(part.externally_posed);
 }
 
 TEST(SceneLoader, DefaultsForAbsentKeys)
@@ -568,6 +569,13 @@ boundaries:
   EXPECT_TRUE(s.boundaries[0].mesh_closed);
   EXPECT_GT(io::signedVolume(s.boundaries[0].mesh), 0.0);
   EXPECT_FALSE(s.boundaries[1].mesh_closed);
+  // An open inline mesh used as a solid is warned about as a file's is (it was not), and not when
+  // `offset: none` says the thin shell is meant.
+  ASSERT_EQ(s.warnings.size(), 1u);
+  EXPECT_NE(s.warnings[0].find("boundaries[1] 'paddle' (inline mesh): not a closed surface (3 border edges)"),
+            std::string::npos)
+      << s.warnings[0];
+  EXPECT_TRUE(parseScene(scene + "    offset: none\n", "scene.yaml").warnings.empty());
 }
 
 }  // namespace
@@ -779,9 +787,44 @@ TEST(SceneLoader, UrdfFreeLinks)
   expectError(boatScene(urdf, "      free_links: {hull: {desnity: 500}}\n"),
               "boundaries[0].urdf.free_links.hull.desnity", "did you mean 'density'");
   expectError(boatScene(urdf, "      free_links: [hull]\n"), "boundaries[0].urdf.free_links", "expected a map");
-  expectError(boatScene(urdf, "      free_links: {hull: {density: 500, mass: 2}}\n"), "boundaries[0].dynamic",
+  expectError(boatScene(urdf, "      free_links: {hull: {density: 500, mass: 2}}\n"),
+              "boundaries[0].urdf.free_links.hull",
               "exactly one of density (kg/m^3) and mass (kg), > 0, for 'hull', got density 500, mass 2");
   expectError(boatScene(urdf, "") + "    dynamic: {density: 500}\n", "boundaries[0].dynamic", "urdf.free_links");
+  // The entry's motion applies to every link, the free one too: named at its free_links key
+  // (it was "boundaries[4].dynamic" for a scene with two entries).
+  expectError(
+      boatScene(urdf, "      free_links: {hull: {density: 500}}\n") + "    motion: {linear_velocity: [0.1, 0, 0]}\n",
+      "boundaries[0].urdf.free_links.hull", "'hull' has a scripted motion; it cannot also be free");
+  // Messages name the scene's entry, not a body's index among the links before it: the mast's
+  // bad sample spacing is boundaries[1], the second entry, though the boat's hull comes first.
+  const std::string two = kBase + "boundaries:\n  - urdf:\n      file: " + urdf +
+                          "\n    pose: {xyz: [0.7, 0.7, 0.7]}\n  - name: ball\n    sphere: {center: [0.3, 0.3, 0.3], "
+                          "radius: 0.1}\n    sample_spacing: 0.5\n";
+  expectError(two, "boundaries[1].sample_spacing", "must not exceed");
+}
+
+TEST(SceneLoader, ImpossibleMotionsViscosityAndVelocitiesAreNamed)
+{
+  const std::string plate =
+      kBase + "boundaries:\n  - name: plate\n    box: {min: [0.6, 0.6, 0.6], max: [0.7, 0.7, 0.8]}\n";
+  // A body posed from outside cannot also follow a script (the script was ignored).
+  expectError(plate + "    external: true\n    motion: {linear_velocity: [0.5, 0, 0]}\n", "boundaries[0].motion",
+              "posed from outside (external: true); it cannot also have a scripted motion");
+  // Faster than sound in water: a slip (1e300 rad/s made the body vanish from the water).
+  expectError(plate + "    motion: {angular_velocity: [0, 0, 1e300]}\n", "boundaries[0].motion",
+              "faster than sound in water");
+  expectError(plate + "    motion: {angular_velocity: [0, 0, 20000], about: [0.65, 0.65, 0.7]}\n",
+              "boundaries[0].motion", "faster than sound in water");
+  EXPECT_EQ(errorOf(plate + "    motion: {angular_velocity: [0, 0, 200], about: [0.65, 0.65, 0.7]}\n"), "");
+  expectError(kBase, "fluid[0].velocity", "faster than sound in water", {"fluid[0].velocity=[1e30, 0, 0]"});
+  // Viscosity coefficients without a model did nothing, silently; with model none they are kept
+  // (a scene's viscosity switched off for a comparison).
+  expectError(kBase + "viscosity: {coefficient: 0.05}\n", "viscosity.coefficient",
+              "has no effect without viscosity.model");
+  expectError(kBase + "viscosity: {boundary: 0.05}\n", "viscosity.boundary", "has no effect without viscosity.model");
+  EXPECT_EQ(errorOf(kBase + "viscosity: {model: none, coefficient: 0.05}\n"), "");
+  EXPECT_EQ(errorOf(kBase + "viscosity: {coefficient: 0}\n"), "");
 }
 
 TEST(SceneLoader, SinksAreReadAsRegionsAndABodySinkIsRefused)
@@ -799,6 +842,8 @@ TEST(SceneLoader, SinksAreReadAsRegionsAndABodySinkIsRefused)
   EXPECT_EQ(s.sinks[1].shape, RegionShape::Sphere);
   EXPECT_DOUBLE_EQ(s.sinks[1].sphere.radius, 0.2);
   expectError(kBase + "sinks:\n  - {name: cup_drain, body: cup}\n", "sinks[0].body", "a sink is a box or a sphere");
+  expectError(kBase + "sinks:\n  - {name: d, sphere: {center: [0.5, 0.5, 0.5], radius: 0.1}, pose: {xyz: [0, 0, 0]}}\n",
+              "sinks[0].pose", "only a box sink has a pose (a sphere is placed by its center)");
   expectError(kBase + "sinks:\n  - {name: d, box: {min: [0, 0, 0], max: [1, 1, 1]}, radius: 2}\n", "sinks[0].radius",
               "unknown key");
 }

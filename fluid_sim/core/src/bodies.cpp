@@ -80,7 +80,7 @@ BodySet::BodySet(const SceneConfig& scene)
     if (cfg.dynamic.enabled)
     {
       // Mass properties of the shape as given, before sampling (rigid_dynamics.cpp).
-      const std::string key = "boundaries[" + std::to_string(bodies_.size()) + "].dynamic";
+      const std::string key = dynamicKey(cfg, bodies_.size());
       const MassProperties mp = massProperties(body.config, key);
       // A centre of mass beyond every particle of the body (by more than a spacing) is not the
       // body's: most likely a unit or frame mistake (it sent a box 5 m away falling through the

@@ -404,7 +404,7 @@ BulletContacts::BulletContacts(const BodySet& bodies, double spacing, const Cont
   {
     const Body& body = bodies[k];
     const BoundaryConfig& b = body.config;
-    const std::string key = "boundaries[" + std::to_string(k) + "] '" + b.name + "'";
+    const std::string key = boundaryKey(b, k) + " '" + b.name + "'";
     m.entries.emplace_back();
     Impl::Entry& e = m.entries.back();
     e.free = body.free;

@@ -304,6 +304,61 @@ double sampleSpacing(const BoundaryConfig& b, double spacing)
   return spacing;
 }
 
+namespace
+{
+constexpr double kSpeedOfSoundInWater = 1480.0;  // m/s, at 20 degrees C
+
+/// The farthest a point of the body's shape, at its pose at t = 0, lies from `point` (m, world):
+/// over its bounding box's corners (a bound, not exact, for a sphere or cylinder).
+double farthestFrom(const BoundaryConfig& b, const Vec3d& point)
+{
+  Vec3d lo, hi;
+  switch (b.type)
+  {
+    case ShapeType::Box:
+      lo = b.box.min;
+      hi = b.box.max;
+      break;
+    case ShapeType::Sphere:
+      lo = b.sphere.center - Vec3d::Constant(b.sphere.radius);
+      hi = b.sphere.center + Vec3d::Constant(b.sphere.radius);
+      break;
+    case ShapeType::Cylinder:
+    {
+      const double r = std::hypot(b.cylinder.radius, 0.5 * b.cylinder.length);
+      lo = b.cylinder.center - Vec3d::Constant(r);
+      hi = b.cylinder.center + Vec3d::Constant(r);
+      break;
+    }
+    case ShapeType::Mesh:
+      lo = hi = b.mesh.vertices.empty() ? Vec3d::Zero() : b.mesh.vertices[0];
+      for (const Vec3d& v : b.mesh.vertices)
+      {
+        lo = lo.cwiseMin(v);
+        hi = hi.cwiseMax(v);
+      }
+      break;
+  }
+  double farthest = 0.0;
+  for (int k = 0; k < 8; ++k)
+  {
+    const Vec3d corner((k & 1) ? hi.x() : lo.x(), (k & 2) ? hi.y() : lo.y(), (k & 4) ? hi.z() : lo.z());
+    farthest = std::max(farthest, (b.pose.apply(corner) - point).norm());
+  }
+  return farthest;
+}
+}  // namespace
+
+std::string boundaryKey(const BoundaryConfig& b, std::size_t index)
+{
+  return b.key.empty() ? "boundaries[" + std::to_string(index) + "]" : b.key;
+}
+
+std::string dynamicKey(const BoundaryConfig& b, std::size_t index)
+{
+  return b.dynamic_key.empty() ? boundaryKey(b, index) + ".dynamic" : b.dynamic_key;
+}
+
 void validate(const SceneConfig& s)
 {
   requirePositive(s.spacing, "spacing");
@@ -398,6 +453,10 @@ void validate(const SceneConfig& s)
     }
     requireBox(s.fluid[i].box, key + ".box");
     requireFinite(s.fluid[i].velocity, key + ".velocity");
+    if (!(s.fluid[i].velocity.norm() <= kSpeedOfSoundInWater))  // 1e30 m/s ran and blew up in the first step
+      throw ConfigError(key + ".velocity", "speed " + str(s.fluid[i].velocity.norm()) +
+                                               " m/s is faster than sound in water (" + str(kSpeedOfSoundInWater) +
+                                               " m/s)");
     if (!boxInside(s.fluid[i].box, s.domain))
       throw ConfigError(key + ".box", "fluid block lies (partly) outside the domain");
   }
@@ -432,7 +491,7 @@ void validate(const SceneConfig& s)
   for (std::size_t i = 0; i < s.boundaries.size(); ++i)
   {
     const BoundaryConfig& b = s.boundaries[i];
-    const std::string key = "boundaries[" + std::to_string(i) + "]";
+    const std::string key = boundaryKey(b, i);
     if (b.name.empty()) throw ConfigError(key + ".name", "must not be empty");
     for (std::size_t j = 0; j < i; ++j)
       if (s.boundaries[j].name == b.name) throw ConfigError(key + ".name", "duplicate boundary name '" + b.name + "'");
@@ -469,7 +528,23 @@ void validate(const SceneConfig& s)
     requireFinite(b.motion.linear_velocity, key + ".motion.linear_velocity");
     requireNonNegative(b.motion.start, key + ".motion.start");
     requireNonNegative(b.motion.ramp, key + ".motion.ramp");
-    if (b.dynamic.enabled) validateDynamic(b, key + ".dynamic");
+    // Beyond the speed of sound in water (1,480 m/s) an incompressible model means nothing, and
+    // such values are typing slips: an angular velocity of 1e300 rad/s overflowed the float
+    // particle velocities and the body dropped out of the water without a word.
+    const double surface_speed =
+        b.motion.linear_velocity.norm() + b.motion.angular_velocity.norm() * farthestFrom(b, b.motion.about);  // m/s
+    if (!(surface_speed <= kSpeedOfSoundInWater))
+      throw ConfigError(key + ".motion", "'" + b.name + "' would move at up to " + str(surface_speed) +
+                                             " m/s (linear_velocity plus angular_velocity times its reach from "
+                                             "about), faster than sound in water (" +
+                                             str(kSpeedOfSoundInWater) + " m/s)");
+    // A body posed from outside follows its poses only: a motion beside it was ignored without a
+    // word (the plate stood still where the script would have pulled it).
+    if (b.externally_posed && !b.motion.isStatic())
+      throw ConfigError(key + ".motion", "'" + b.name +
+                                             "' is posed from outside (external: true); it cannot also have a "
+                                             "scripted motion: give one or the other");
+    if (b.dynamic.enabled) validateDynamic(b, dynamicKey(b, i));
     if (b.sample_spacing != kAutoSampleSpacing) requireNonNegative(b.sample_spacing, key + ".sample_spacing");
     if (b.sample_spacing > s.spacing)
       throw ConfigError(key + ".sample_spacing", "must not exceed the scene spacing " + str(s.spacing));

@@ -121,6 +121,7 @@ std::string toJson(const RunSummary& s)
   j["max_density_error"] = s.max_density_error;
   j["bodies"] = bodies;
   j["fill"] = {{"trimmed", s.fill.trimmed},
+               {"overlapped", s.fill.overlapped},
                {"relaxed", s.fill.relaxed},
                {"relax_steps", s.fill.relax_steps},
                {"settled", s.fill.settled},

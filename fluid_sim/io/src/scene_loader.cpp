@@ -143,11 +143,22 @@ ViscosityConfig readViscosity(const Entry& e)
 {
   MapReader r(e);
   ViscosityConfig v;
-  if (auto m = r.get("model"))
-    v.model = readNamed(*m, {ViscosityModel::None, ViscosityModel::Artificial, ViscosityModel::Xsph});
+  const std::optional<Entry> model = r.get("model");
+  if (model) v.model = readNamed(*model, {ViscosityModel::None, ViscosityModel::Artificial, ViscosityModel::Xsph});
   r.read("coefficient", v.coefficient);
   r.read("boundary", v.boundary);
   r.finish();
+  // Coefficients without a model were ignored without a word (the default model is none); an
+  // explicit `model: none` keeps them, so that a scene's viscosity can be switched off with
+  // --set viscosity.model=none.
+  if (!model)
+    for (const char* key : {"coefficient", "boundary"})
+      if (auto given = r.get(key))
+        if (readScalar<double>(*given) != 0.0)
+          throw ConfigError(given->key,
+                            "has no effect without viscosity.model (the default is none): give model: "
+                            "xsph or artificial" +
+                                lineOf(given->node));
   return v;
 }
 
@@ -272,6 +283,20 @@ ExplicitParticles readParticles(const Entry& e, const LoadContext& ctx)
               "burst apart in the first step: use the spacing it was saved with";
       ctx.warnings->push_back(note.str());
     }
+    else if (packing.densest < 0.85 && d >= 0.55 * ctx.spacing && d <= 1.4 * ctx.spacing)
+    {
+      // Expanded: even the densest particle, deep in the water, is well under rest density (a
+      // 2 cm frame started at 1.5 cm: 0.42, 42 % of the water's mass; its median nearest distance,
+      // 1.31 spacings, passed the test below). Beyond 1.4 spacings the kernel barely reaches a
+      // neighbour and the sum says nothing of the spacing: the nearest distances below speak.
+      std::ostringstream note;
+      note << ctx.source << ": " << e.key << " (" << written << "): the densest particles sit at only "
+           << packing.densest << " times rest density at the scene's spacing of " << ctx.spacing
+           << " m (as if saved at a spacing of about " << ctx.spacing / std::cbrt(packing.densest)
+           << " m); each particle gets the mass rest_density * spacing^3, so the water starts with that fraction "
+              "of its mass and collapses: use the spacing it was saved with";
+      ctx.warnings->push_back(note.str());
+    }
     else if (!(d >= 0.55 * ctx.spacing && d <= 1.4 * ctx.spacing))
     {
       std::ostringstream note;
@@ -349,7 +374,7 @@ struct SceneMesh
   TriangleMesh mesh;
   bool closed = false;
   std::string file;                      // as written; "" for an inline mesh
-  std::size_t border_edges = 0;          // MeshFile::border_edges (a file only)
+  std::size_t border_edges = 0;          // MeshFile::border_edges, or the inline mesh's
   std::size_t degenerate_triangles = 0;  // MeshFile::degenerate_triangles (a file only)
 };
 
@@ -400,6 +425,7 @@ SceneMesh readMesh(const Entry& e, const LoadContext& ctx)
   });
   r.finish();
   out.closed = orientOutward(out.mesh);
+  out.border_edges = borderEdges(out.mesh);
   buildInsideIndex(out.mesh);
   return out;
 }
@@ -522,10 +548,13 @@ RegionConfig readRegion(const Entry& e)
   const Entry& shape = shapes.front();
   const std::string shape_name = shapeName(shape);
   if (pose && shape_name != "box")
-    throw ConfigError(pose->key,
-                      "only a box region has a pose (a sphere is placed by its center, a body region "
-                      "follows its body)" +
-                          lineOf(pose->node));
+  {
+    // Sinks are read here too: the message says which list the entry is in.
+    const bool sink = e.key.rfind("sinks", 0) == 0;
+    throw ConfigError(pose->key, std::string("only a box ") + (sink ? "sink" : "region") +
+                                     " has a pose (a sphere is placed by its center" +
+                                     (sink ? ")" : ", a body region follows its body)") + lineOf(pose->node));
+  }
   if (shape_name == "box")
   {
     region.shape = RegionShape::Box;
@@ -728,6 +757,7 @@ std::vector<BoundaryConfig> readUrdf(const Entry& e, const BoundaryConfig& commo
   }
   r.finish();
   options.root_pose = common.pose;
+  options.thin_shells_meant = common.mesh_offset == SurfaceOffset::None;  // the default is auto
   options.spacing = finest_spacing;
   options.packages = ctx.packages;
   std::vector<BoundaryConfig> bodies;
@@ -764,6 +794,7 @@ std::vector<BoundaryConfig> readUrdf(const Entry& e, const BoundaryConfig& commo
                                          joinNames(names, " or ") + ")" + lineOf(link.at.node));
     }
     body->dynamic = link.dynamic;
+    body->dynamic_key = link.at.key;
   }
   for (const BoundaryConfig& body : bodies)
   {
@@ -870,9 +901,11 @@ std::vector<BoundaryConfig> readBoundary(const Entry& e, std::size_t index, cons
     b.type = ShapeType::Mesh;
     b.mesh = std::move(mesh.mesh);
     b.mesh_closed = mesh.closed;
-    if (ctx.warnings && !mesh.file.empty())
+    if (ctx.warnings)
     {
-      const std::string what = ctx.source + ": " + e.key + " '" + b.name + "' (" + mesh.file + ")";
+      // Inline meshes too: an open one used as a solid (offset auto) was not warned about.
+      const std::string what =
+          ctx.source + ": " + e.key + " '" + b.name + "' (" + (mesh.file.empty() ? "inline mesh" : mesh.file) + ")";
       for (auto& note : surfaceNotes(what, mesh.closed || (offset_given && b.mesh_offset == SurfaceOffset::None),
                                      mesh.border_edges, mesh.degenerate_triangles))
         ctx.warnings->push_back(std::move(note));
@@ -905,7 +938,11 @@ SceneConfig readScene(const YAML::Node& root, LoadContext& ctx)
   if (auto e = r.get("fill")) s.fill = readFill(*e);
   if (auto e = r.get("boundaries"))
     forEachItem(*e, [&](const Entry& item) {
-      for (auto& b : readBoundary(item, s.boundaries.size(), ctx)) s.boundaries.push_back(std::move(b));
+      for (auto& b : readBoundary(item, s.boundaries.size(), ctx))
+      {
+        b.key = item.key;  // messages name the scene's entry, not the body's index among a URDF's links
+        s.boundaries.push_back(std::move(b));
+      }
     });
   if (auto e = r.get("output")) s.output = readOutput(*e);
   if (auto e = r.get("regions")) forEachItem(*e, [&](const Entry& item) { s.regions.push_back(readRegion(item)); });

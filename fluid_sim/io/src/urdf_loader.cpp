@@ -526,8 +526,9 @@ std::vector<BoundaryConfig> urdfBoundaries(const UrdfRobot& robot, const UrdfBou
       b.mesh = std::move(surface.mesh);
       b.mesh_closed = surface.closed;
       if (warnings)
-        for (auto& note : surfaceNotes(robot.source + ": link '" + name + "'", surface.closed, surface.border_edges,
-                                       surface.degenerate_triangles))
+        for (auto& note :
+             surfaceNotes(robot.source + ": link '" + name + "'", surface.closed || options.thin_shells_meant,
+                          surface.border_edges, surface.degenerate_triangles))
           warnings->push_back(std::move(note));
     }
     out.push_back(std::move(b));

@@ -103,7 +103,17 @@ void SolverLoop::build(const std::map<std::string, Pose>& poses, const ros::Time
     ROS_INFO("fill: %zu lattice points trimmed at walls; relaxed from %.3g %% to %.3g %% in %d pseudo-steps (%.0f ms)",
              fill.trimmed, 100.0 * fill.initial_density_error, 100.0 * fill.final_density_error, fill.relax_steps,
              fill.ms_relax);
-  if (!fill.settled)
+  if (fill.overlapped > 0)
+    ROS_INFO(
+        "fill: %zu lattice points left out where an earlier fluid block's water lies (overlapping blocks make "
+        "their union)",
+        fill.overlapped);
+  if (!fill.settled && !scene.fill.relax)
+    ROS_WARN(
+        "fill: fill.relax is off and the lattice is %.3g %% from rest density (fill.relax_tolerance %.3g %%): it "
+        "starts unsettled and will move at t = 0",
+        100.0 * fill.final_density_error, 100.0 * scene.fill.relax_tolerance);
+  else if (!fill.settled)
     ROS_WARN(
         "fill: the relaxation stopped at fill.relax_max_steps = %d with the water %.3g %% from rest density "
         "(fill.relax_tolerance %.3g %%): it starts unsettled and will move at t = 0; raise fill.relax_max_steps",

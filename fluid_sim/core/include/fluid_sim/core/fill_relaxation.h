@@ -46,8 +46,10 @@ double latticeDensityError(const std::vector<Real>& rho, const std::vector<FillK
 /// relaxation and restored afterwards). On return the particles are in the fill's order, explicit
 /// ones bit for bit as they were, every particle has its initial velocity, rest density and zero
 /// pressures; only the lattice particles' positions may have changed. Fills the density errors,
-/// relaxed and relax_steps of `report`.
+/// relaxed and relax_steps of `report`. With `measure_only` (fill.relax off) nothing is moved: the
+/// error is measured, and beyond the tolerance `report.settled` is false.
 void relaxFill(const SceneConfig& scene, const FluidConstants& constants, const std::vector<FillKind>& kind, double dt,
-               FluidParticles& fluid, BodySet& bodies, Neighborhoods& neighbors, FillReport& report);
+               FluidParticles& fluid, BodySet& bodies, Neighborhoods& neighbors, FillReport& report,
+               bool measure_only = false);
 
 }  // namespace fluid_sim

@@ -159,7 +159,17 @@ struct BoundaryConfig
   // value `auto`): see sampleSpacing(); may be finer, never coarser.          key: sample_spacing
   double sample_spacing = 0.0;
   DynamicConfig dynamic;  // key: dynamic (a free body)
+  // Where the scene wrote it, for messages (set by io): the entry's key ("boundaries[1]"; a URDF
+  // entry's links all share theirs), and where its `dynamic` is written when not at key.dynamic
+  // (a free link: "boundaries[1].urdf.free_links.hull"). Empty: "boundaries[<index>]".
+  std::string key;
+  std::string dynamic_key;
 };
+
+/// The key messages name a body by: b.key, or "boundaries[index]" when io did not set one.
+std::string boundaryKey(const BoundaryConfig& b, std::size_t index);
+/// The key of a body's `dynamic` entry: b.dynamic_key, or boundaryKey() + ".dynamic".
+std::string dynamicKey(const BoundaryConfig& b, std::size_t index);
 
 /// `sample_spacing: auto`.
 constexpr double kAutoSampleSpacing = -1.0;

@@ -2,6 +2,7 @@
 // The simulation facade: built from a SceneConfig, advanced with step(), read through
 // accessors. Used by the headless runner, the benchmark, the tests and the ROS node.
 
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -78,17 +79,19 @@ struct StepReport
 /// docs/method.md, Initial fluid, Eqs. A21-A23).
 struct FillReport
 {
-  std::size_t trimmed = 0;  // lattice points left out for lying closer than a spacing to a wall (Eq. A21)
+  std::size_t trimmed = 0;     // lattice points left out for lying closer than a spacing to a wall (Eq. A21)
+  std::size_t overlapped = 0;  // lattice points left out where an earlier fluid block's water lies
   // Largest relative density error (rho - rho0)/rho0 (Eq. A1) over the lattice particles at
-  // t = 0, before and after the relaxation (equal when it was not needed; both 0 with
-  // fill.relax off or without lattice particles, when it is not computed).
+  // t = 0, before and after the relaxation (equal when it was not needed or fill.relax is off;
+  // both 0 without lattice particles, when it is not computed).
   double initial_density_error = 0.0;
   double final_density_error = 0.0;
   bool relaxed = false;  // the initial error exceeded fill.relax_tolerance: the lattice was relaxed
   int relax_steps = 0;   // pseudo-steps taken (Eq. A22)
   // False when the relaxation stopped at fill.relax_max_steps before the lattice was within
   // fill.relax_tolerance of rest density and held (Eq. A23): the water starts unsettled and will
-  // move at t = 0. True when settled or not needed (and with fill.relax off, when not checked).
+  // move at t = 0; with fill.relax off, when the lattice is beyond the tolerance. True when
+  // settled or not needed.
   bool settled = true;
   double ms_relax = 0.0;  // wall-clock time of the check and the relaxation, ms
 };
@@ -139,8 +142,9 @@ public:
   Simulation(const Simulation&) = delete;
   Simulation& operator=(const Simulation&) = delete;
 
-  /// Advances by one time step (fixed, or CFL-adaptive).
-  StepReport step();
+  /// Advances by one time step (fixed, or CFL-adaptive), or by `max_dt` (s) when that is shorter:
+  /// a run that must end at a given time takes its last step short (the runner's --duration).
+  StepReport step(double max_dt = std::numeric_limits<double>::infinity());
 
   /// Poses an externally driven body (`external: true`) for the next step: `pose` is its pose at
   /// time(), the start of that step. Its velocity follows from the change of pose since the
@@ -190,8 +194,9 @@ public:
   /// The trimming and relaxation of the lattices before t = 0.
   const FillReport& fillReport() const;
   /// What the build found suspicious in the scene's start, one line each (free bodies that start
-  /// overlapping another body or outside every container, BodySet::startWarnings()): the runner
-  /// prints them, the node logs them.
+  /// overlapping another body or outside every container, or too light, BodySet::startWarnings();
+  /// fluid blocks whose whole-spacing lattice leaves much of them empty, FillResult::warnings):
+  /// the runner prints them, the node logs them.
   const std::vector<std::string>& startWarnings() const;
   std::size_t removedTotal() const;  // particles that left the domain since start (sinks not counted)
   /// Per sink of the scene, in its order: what it removed since t = 0.

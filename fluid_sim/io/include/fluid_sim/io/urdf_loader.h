@@ -130,6 +130,8 @@ struct UrdfBoundaryOptions
   /// parallel to the link axes becomes that core primitive (exact surface and inside test, lattice
   /// sampling) instead of a tessellated mesh. Its frame is the link frame either way.
   bool exact_primitives = true;
+  /// The scene says `offset: none`: open links are meant as thin shells and are not warned about.
+  bool thin_shells_meant = false;
 };
 
 /// One BoundaryConfig per selected link, named after the link, pose = the link's pose in the world,
