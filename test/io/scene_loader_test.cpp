@@ -246,6 +246,20 @@ TEST(SceneLoader, AProbeOutsideTheDomainIsWarnedAbout)
   ASSERT_EQ(outside.warnings.size(), 1u);
   EXPECT_NE(outside.warnings[0].find("probes[0] 'p'"), std::string::npos) << outside.warnings[0];
   EXPECT_NE(outside.warnings[0].find("outside the domain"), std::string::npos) << outside.warnings[0];
+  // Regions and sinks that miss the domain altogether, as placed (a box by its pose), too; one
+  // that reaches into it is not.
+  const SceneConfig regions =
+      parseScene(kBase +
+                     "regions:\n  - {name: far, sphere: {center: [3, 0.5, 0.5], radius: 0.5}}\n"
+                     "  - {name: near, sphere: {center: [1.2, 0.5, 0.5], radius: 0.5}}\n"
+                     "  - {name: moved, box: {min: [0, 0, 0], max: [0.2, 0.2, 0.2]}, pose: {xyz: "
+                     "[0, 0, -1]}}\nsinks:\n  - {name: drain, box: {min: [0, 0, 2], max: [1, 1, "
+                     "3]}}\n",
+                 "scene.yaml");
+  ASSERT_EQ(regions.warnings.size(), 3u);
+  EXPECT_NE(regions.warnings[0].find("regions[0] 'far' lies wholly outside the domain"), std::string::npos);
+  EXPECT_NE(regions.warnings[1].find("regions[2] 'moved'"), std::string::npos) << regions.warnings[1];
+  EXPECT_NE(regions.warnings[2].find("sinks[0] 'drain'"), std::string::npos) << regions.warnings[2];
 }
 
 TEST(SceneLoader, LoadsFileAndNamesItInErrors)

@@ -962,6 +962,36 @@ SceneConfig readScene(const YAML::Node& root, LoadContext& ctx)
                            numberText(p.x()) + ", " + numberText(p.y()) + ", " + numberText(p.z()) +
                            ") lies outside the domain, where there is never water: it will read dry");
   }
+  // So is a box or sphere region or sink that misses the domain altogether (a body region moves
+  // with its body).
+  const auto missesDomain = [&](const RegionConfig& region) {
+    AxisBox bounds;
+    if (region.shape == RegionShape::Sphere)
+      bounds = {region.sphere.center - Vec3d::Constant(region.sphere.radius),
+                region.sphere.center + Vec3d::Constant(region.sphere.radius)};
+    else if (region.shape == RegionShape::Box)
+    {
+      bounds.min = Vec3d::Constant(std::numeric_limits<double>::infinity());
+      bounds.max = -bounds.min;
+      for (int k = 0; k < 8; ++k)
+      {
+        const Vec3d corner((k & 1) ? region.box.max.x() : region.box.min.x(),
+                           (k & 2) ? region.box.max.y() : region.box.min.y(),
+                           (k & 4) ? region.box.max.z() : region.box.min.z());
+        const Vec3d world = region.pose.apply(corner);
+        bounds.min = bounds.min.cwiseMin(world);
+        bounds.max = bounds.max.cwiseMax(world);
+      }
+    }
+    else
+      return false;
+    return (bounds.max.array() < s.domain.min.array()).any() || (bounds.min.array() > s.domain.max.array()).any();
+  };
+  for (const auto& [list, key] : {std::make_pair(&s.regions, "regions"), std::make_pair(&s.sinks, "sinks")})
+    for (std::size_t i = 0; i < list->size(); ++i)
+      if (missesDomain((*list)[i]))
+        s.warnings.push_back(std::string(key) + "[" + std::to_string(i) + "] '" + (*list)[i].name +
+                             "' lies wholly outside the domain, where there is never water: it will stay empty");
   return s;
 }
 
