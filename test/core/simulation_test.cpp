@@ -316,6 +316,57 @@ TEST(Bodies, ScriptedMotionStartAndRampAreSmoothAndIntegrated)
   EXPECT_LT((integral - (st.pose.translation - paddle.pose.translation)).norm(), 1e-10);
 }
 
+TEST(Bodies, ScriptedMotionStopsSmoothlyAndStaysWhereItGot)
+{
+  // A paddle that sweeps and then stays (a scripted motion could not stop): ramps of 0.1 s up from
+  // 0.05 s and down to 0.4 s, still afterwards at the pose it reached.
+  SceneConfig s = smallScene();
+  BoundaryConfig paddle = scriptedPaddle();
+  paddle.motion.start = 0.05;  // s
+  paddle.motion.ramp = 0.1;    // s
+  paddle.motion.stop = 0.4;    // s
+  s.boundaries.push_back(paddle);
+  validate(s);
+  BodySet bodies(s);
+  const Vec3d w_full = paddle.motion.angular_velocity;
+  // Full speed between the ramps; half speed half way down, the largest deceleration there.
+  for (double t : {0.16, 0.2, 0.29}) EXPECT_LT((stateAt(bodies, t).w - w_full).norm(), 1e-15) << t;
+  BodyState st = stateAt(bodies, 0.35);
+  EXPECT_LT((st.w - 0.5 * w_full).norm(), 1e-12);
+  EXPECT_LT((st.alpha + 2.0 * w_full / 0.1).norm(), 1e-9);
+  // Still after the stop, at the pose of the whole sweep: turned by |w| (stop - start - ramp).
+  const BodyState end = stateAt(bodies, 0.4);
+  for (double t : {0.4, 0.5, 2.0})
+  {
+    st = stateAt(bodies, t);
+    EXPECT_EQ(st.v, Vec3d::Zero()) << t;
+    EXPECT_EQ(st.w, Vec3d::Zero()) << t;
+    EXPECT_EQ(st.a, Vec3d::Zero()) << t;
+    EXPECT_EQ(st.alpha, Vec3d::Zero()) << t;
+    EXPECT_EQ(st.pose.translation, end.pose.translation) << t;
+  }
+  const double angle = (end.pose.rotation * paddle.pose.rotation.conjugate()).normalized().vec().norm();
+  EXPECT_NEAR(2.0 * std::asin(angle), w_full.norm() * (0.4 - 0.05 - 0.1), 1e-12);
+  // Velocities and accelerations are the pose's derivatives through the ramp down and the stop.
+  const double h = 1e-6;  // s
+  for (double t = 0.28; t <= 0.42 + 1e-12; t += 0.01)
+  {
+    const BodyState m = stateAt(bodies, t - h);
+    const BodyState p = stateAt(bodies, t + h);
+    st = stateAt(bodies, t);
+    EXPECT_LT(((p.pose.translation - m.pose.translation) / (2 * h) - st.v).norm(), 1e-8) << "t = " << t;
+    EXPECT_LT((rotationVectorOf(p.pose.rotation * m.pose.rotation.conjugate()) / (2 * h) - st.w).norm(), 1e-8)
+        << "t = " << t;
+    EXPECT_LT(((p.v - m.v) / (2 * h) - st.a).norm(), 1e-6) << "t = " << t;
+  }
+  // The CFL speed ahead sees the motion while it runs and nothing once it has stopped.
+  EXPECT_GT(bodies.maxSpeedAhead(0.3, 0.005), 0.0);
+  EXPECT_EQ(bodies.maxSpeedAhead(0.4, 0.005), 0.0);
+  // A stop that leaves no room for both ramps is refused, naming its key.
+  s.boundaries[0].motion.stop = 0.2;
+  EXPECT_EQ(errorKey(s), "boundaries[0].motion.stop");
+}
+
 TEST(Bodies, ScriptedMotionWithoutStartOrRampHasConstantVelocitiesThatArePoseDerivatives)
 {
   // The paddle turns and translates at once: its origin's velocity is do/dt = w x (o - c - u t) + u,

@@ -25,15 +25,20 @@ Vec3d rotationVector(const Eigen::Quaterniond& q)
   return aa.axis() * angle;
 }
 
-/// Ramp of scripted motion with a start time or a ramp (Eq. A17): at `time` (s), the factor r of
-/// the configured velocities (dimensionless), its rate dr (1/s), and its integral since the start,
-/// s = int_start^time r dt' (s), the time the body would have needed at full speed for the same
-/// displacement. With tau = time - start and u = tau / ramp:
-///   tau < 0:           r = 0, dr = 0, s = 0
-///   0 <= tau < ramp:   r = u - sin(2 pi u) / (2 pi),  dr = (1 - cos(2 pi u)) / ramp,
-///                      s = ramp (u^2 / 2 - (1 - cos(2 pi u)) / (4 pi^2))
-///   tau >= ramp:       r = 1, dr = 0, s = tau - ramp / 2
-/// r is C2 (dr and its rate vanish at both ends): velocities and accelerations are continuous.
+/// Ramp of scripted motion with a start time, a ramp or a stop (Eq. A17): at `time` (s), the
+/// factor r of the configured velocities (dimensionless), its rate dr (1/s), and its integral since
+/// the start, s = int_start^time r dt' (s), the time the body would have needed at full speed for
+/// the same displacement. With tau = time - start, u = tau / ramp, E = stop - start and
+/// v = (tau - (E - ramp)) / ramp:
+///   tau < 0:                 r = 0, dr = 0, s = 0
+///   0 <= tau < ramp:         r = u - sin(2 pi u) / (2 pi),  dr = (1 - cos(2 pi u)) / ramp,
+///                            s = ramp (u^2 / 2 - (1 - cos(2 pi u)) / (4 pi^2))
+///   ramp <= tau < E - ramp:  r = 1, dr = 0, s = tau - ramp / 2
+///   E - ramp <= tau < E:     r = 1 - (v - sin(2 pi v) / (2 pi)),  dr = -(1 - cos(2 pi v)) / ramp,
+///                            s = E - 3 ramp / 2 + ramp (v - v^2 / 2 + (1 - cos(2 pi v)) / (4 pi^2))
+///   tau >= E:                r = 0, dr = 0, s = E - ramp
+/// r is C2 (dr and its rate vanish at the ends of both ramps): velocities and accelerations are
+/// continuous. validate() asks for E >= 2 ramp, so the two ramps do not overlap.
 struct MotionRamp
 {
   double r = 0.0;   // dimensionless
@@ -41,24 +46,52 @@ struct MotionRamp
   double s = 0.0;   // s
 };
 
+/// The rising ramp's r, dr and s at u in (0, 1), for a ramp of `ramp` seconds.
+MotionRamp rising(double u, double ramp)
+{
+  MotionRamp out;
+  const double half_sin = std::sin(M_PI * u);
+  const double one_minus_cos = 2.0 * half_sin * half_sin;  // 1 - cos(2 pi u), without cancellation
+  out.r = u - std::sin(2.0 * M_PI * u) / (2.0 * M_PI);
+  out.dr = one_minus_cos / ramp;
+  out.s = ramp * (0.5 * u * u - one_minus_cos / (4.0 * M_PI * M_PI));
+  return out;
+}
+
 MotionRamp motionRamp(const MotionConfig& m, double time)
 {
   MotionRamp out;
   const double tau = time - m.start;  // s since the start
   if (!(tau >= 0.0)) return out;
+  const double end = m.stop - m.start;  // s, infinite without a stop
+  if (tau >= end)                       // still again at the pose reached
+  {
+    out.s = end - m.ramp;
+    return out;
+  }
+  if (tau >= end - m.ramp)  // slowing down: the rising ramp mirrored (ramp > 0 here)
+  {
+    const MotionRamp up = rising((tau - (end - m.ramp)) / m.ramp, m.ramp);
+    out.r = 1.0 - up.r;
+    out.dr = -up.dr;
+    out.s = (end - 1.5 * m.ramp) + (tau - (end - m.ramp)) - up.s;
+    return out;
+  }
   if (tau >= m.ramp)  // without a ramp: full speed from the start (r = 1, s = time - start)
   {
     out.r = 1.0;
     out.s = tau - 0.5 * m.ramp;
     return out;
   }
-  const double u = tau / m.ramp;  // in (0, 1): ramp > 0 here
-  const double half_sin = std::sin(M_PI * u);
-  const double one_minus_cos = 2.0 * half_sin * half_sin;  // 1 - cos(2 pi u), without cancellation
-  out.r = u - std::sin(2.0 * M_PI * u) / (2.0 * M_PI);
-  out.dr = one_minus_cos / m.ramp;
-  out.s = m.ramp * (0.5 * u * u - one_minus_cos / (4.0 * M_PI * M_PI));
-  return out;
+  return rising(tau / m.ramp, m.ramp);  // ramp > 0 here
+}
+
+/// The largest r over [t0, t1] (s): r rises, holds at 1 and falls.
+double largestRamp(const MotionConfig& m, double t0, double t1)
+{
+  const double plateau_begin = m.start + m.ramp, plateau_end = m.stop - m.ramp;  // s
+  if (t0 <= plateau_end && t1 >= plateau_begin) return 1.0;
+  return std::max(motionRamp(m, t0).r, motionRamp(m, t1).r);
 }
 }  // namespace
 
@@ -201,9 +234,9 @@ double BodySet::maxSpeedAhead(double time, double horizon) const
     // is its initial offset from the axis point, rotated about the axis: its distance from the
     // axis stays that of the origin's initial offset plus reach at most.
     const MotionConfig& m = body.config.motion;
-    const double r = motionRamp(m, time + horizon).r;     // the ramp's factor only rises
-    const double w = m.angular_velocity.norm();           // rad/s
-    Vec3d arm = body.initial_pose.translation - m.about;  // m
+    const double r = largestRamp(m, time, time + horizon);  // the ramp's factor over the horizon
+    const double w = m.angular_velocity.norm();             // rad/s
+    Vec3d arm = body.initial_pose.translation - m.about;    // m
     if (w > 0.0) arm -= arm.dot(m.angular_velocity / w) * (m.angular_velocity / w);
     speed = std::max(speed, r * (m.linear_velocity.norm() + w * (arm.norm() + body.reach)));
   }

@@ -528,6 +528,12 @@ void validate(const SceneConfig& s)
     requireFinite(b.motion.linear_velocity, key + ".motion.linear_velocity");
     requireNonNegative(b.motion.start, key + ".motion.start");
     requireNonNegative(b.motion.ramp, key + ".motion.ramp");
+    // A stop (default: none) comes after the start and leaves room for both ramps.
+    if (std::isnan(b.motion.stop) || b.motion.stop < b.motion.start + 2.0 * b.motion.ramp ||
+        (b.motion.ramp == 0.0 && !(b.motion.stop > b.motion.start)))
+      throw ConfigError(key + ".motion.stop", "must be at least start + 2 ramp (" + str(b.motion.start) + " + 2 x " +
+                                                  str(b.motion.ramp) + " s: a ramp up, then one down), got " +
+                                                  str(b.motion.stop));
     // Beyond the speed of sound in water (1,480 m/s) an incompressible model means nothing, and
     // such values are typing slips: an angular velocity of 1e300 rad/s overflowed the float
     // particle velocities and the body dropped out of the water without a word.

@@ -459,6 +459,7 @@ MotionConfig readMotion(const Entry& e)
   r.read("linear_velocity", m.linear_velocity);
   r.read("start", m.start);
   r.read("ramp", m.ramp);
+  r.read("stop", m.stop);
   r.finish();
   return m;
 }

@@ -111,6 +111,9 @@ struct MotionConfig
   Vec3d linear_velocity = Vec3d::Zero();   // m/s                          key: motion.linear_velocity
   double start = 0.0;                      // s, still at the initial pose before it   key: motion.start
   double ramp = 0.0;                       // s, velocities rise from 0 over it        key: motion.ramp
+  // s, the time the body is still again: the velocities fall to 0 over `ramp` ending here, and
+  // it stays at the pose it reached. Infinite (the default): it never stops.    key: motion.stop
+  double stop = std::numeric_limits<double>::infinity();
   bool isStatic() const
   {
     return angular_velocity.isZero(0) && linear_velocity.isZero(0);
