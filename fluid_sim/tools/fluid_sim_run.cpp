@@ -1,6 +1,7 @@
 // fluid_sim_run: runs a scene headless and writes PLY frames, stats.csv and summary.json, the
 // instruments' regions.csv, probes.csv and spill.csv when the scene declares them, bodies.csv
-// when it has free bodies, sinks.csv when it has sinks and emitters.csv when it has emitters;
+// when it has free bodies, wrenches.csv when it has bodies, sinks.csv when it has sinks and
+// emitters.csv when it has emitters;
 // with --surface the free surface as a mesh beside each frame (surface/NNNNNN.obj).
 //
 //   fluid_sim_run SCENE.yaml [--duration S] [--out DIR] [--set key.path=value ...] [--threads N]
@@ -168,7 +169,7 @@ void removeOldFrames(const fs::path& frames_dir, const std::string& extension = 
 void removeOldOutputs(const fs::path& out_dir)
 {
   for (const char* name : {"stats.csv", "summary.json", "regions.csv", "probes.csv", "spill.csv", "bodies.csv",
-                           "sinks.csv", "emitters.csv"})
+                           "wrenches.csv", "sinks.csv", "emitters.csv"})
     fs::remove(out_dir / name);
   if (fs::is_directory(out_dir / "frames")) removeOldFrames(out_dir / "frames");
   if (fs::is_directory(out_dir / "surface")) removeOldFrames(out_dir / "surface", "obj");
@@ -341,6 +342,11 @@ int run(const Options& options)
     instrument_csv = std::make_unique<io::MeasurementCsvWriter>(out_dir.string(), *instruments);
   std::unique_ptr<io::BodiesCsvWriter> bodies_csv;
   if (io::hasFreeBodies(*sim)) bodies_csv = std::make_unique<io::BodiesCsvWriter>((out_dir / "bodies.csv").string());
+  // wrenches.csv: every body's force and torque, time-averaged between the measurements (a force
+  // history of a scripted paddle or a tank; summary.json has only the last tenth's mean).
+  std::unique_ptr<io::WrenchesCsvWriter> wrenches_csv;
+  if (sim->numBodies() > 0)
+    wrenches_csv = std::make_unique<io::WrenchesCsvWriter>((out_dir / "wrenches.csv").string(), io::bodyNames(*sim));
   std::unique_ptr<io::SinksCsvWriter> sinks_csv;
   if (!scene.sinks.empty()) sinks_csv = std::make_unique<io::SinksCsvWriter>((out_dir / "sinks.csv").string());
   std::unique_ptr<io::EmittersCsvWriter> emitters_csv;
@@ -353,12 +359,13 @@ int run(const Options& options)
   std::optional<io::SpillSummary> spill;
   if (scene.spill.enabled) spill = io::SpillSummary{scene.spill.below, 0, 0.0, 0, 0.0};
   const auto measureIfDue = [&](double t, double dt, bool force) {
-    if ((!instrument_csv && !bodies_csv && !sinks_csv && !emitters_csv) || t == last_measured) return;
+    if ((!instrument_csv && !bodies_csv && !wrenches_csv && !sinks_csv && !emitters_csv) || t == last_measured) return;
     if (!force && (frame_interval <= 0.0 || t + 0.5 * dt < measure_slot * frame_interval)) return;
     last_measured = t;
     if (frame_interval > 0.0)
       measure_slot = std::max(measure_slot, static_cast<std::size_t>(std::floor((t + 0.5 * dt) / frame_interval)) + 1);
     if (bodies_csv) bodies_csv->write(t, io::bodyInfos(*sim));
+    if (wrenches_csv) wrenches_csv->write(t);
     if (sinks_csv) sinks_csv->write(t, sim->sinkTotals());
     if (emitters_csv) emitters_csv->write(t, sim->emitterTotals());
     if (!instrument_csv) return;
@@ -401,7 +408,9 @@ int run(const Options& options)
         sim->step(remaining < (1.0 - 1.0e-6) * sim->nextTimeStep() ? remaining : sim->nextTimeStep());
     const double wall_ms = 1000.0 * secondsSince(step_start);
     for (const std::string& notice : report.notices) std::cerr << "warning: " << notice << '\n';
-    stats.add(report, wall_ms, io::bodyWrenches(*sim));
+    const std::vector<io::Wrench> wrenches = io::bodyWrenches(*sim);
+    stats.add(report, wall_ms, wrenches);
+    if (wrenches_csv) wrenches_csv->add(wrenches, report.dt);
     csv.write(stats.steps(), report, wall_ms);
     if (report.unstable)
     {
@@ -419,8 +428,8 @@ int run(const Options& options)
       csv.flush();
       if (instrument_csv) instrument_csv->flush();
       if (bodies_csv) bodies_csv->flush();
+      if (wrenches_csv) wrenches_csv->flush();
       if (sinks_csv) sinks_csv->flush();
-      if (emitters_csv) emitters_csv->flush();
       if (emitters_csv) emitters_csv->flush();
       last_flush = Clock::now();
     }
@@ -430,6 +439,7 @@ int run(const Options& options)
   measureIfDue(sim->time(), 0.0, true);  // the final state (unless just measured)
   if (instrument_csv) instrument_csv->flush();
   if (bodies_csv) bodies_csv->flush();
+  if (wrenches_csv) wrenches_csv->flush();
   if (sinks_csv) sinks_csv->flush();
   if (emitters_csv) emitters_csv->flush();
 

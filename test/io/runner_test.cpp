@@ -120,6 +120,46 @@ TEST(Runner, OverridesAndDuration)
   EXPECT_NEAR(readJson(dir.file("cfl/summary.json"))["simulated_time_s"].get<double>(), 0.1, 1e-12);
 }
 
+TEST(Runner, WritesEveryBodysWrenchHistory)
+{
+  // wrenches.csv: each body's force and torque averaged between the measurement times (a force
+  // history; summary.json has only the mean over the last tenth, which the last window here is).
+  test::TempDir dir;
+  dir.write("tiny.yaml", kTinyScene);
+  const RunResult r = run(dir, "tiny.yaml --out w --threads 1 --set output.frame_interval=0.02");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  std::istringstream in(test::readFile(dir.file("w/wrenches.csv")));
+  std::string line;
+  ASSERT_TRUE(std::getline(in, line));
+  EXPECT_EQ(line, "t,body,fx,fy,fz,tx,ty,tz,window_s");
+  std::vector<std::vector<double>> tank;  // t, fx .. tz, window
+  std::size_t rows = 0;
+  double window_sum = 0.0;
+  while (std::getline(in, line))
+  {
+    ++rows;
+    std::vector<std::string> f;
+    std::stringstream cells(line);
+    for (std::string c; std::getline(cells, c, ',');) f.push_back(c);
+    ASSERT_EQ(f.size(), 9u) << line;
+    if (f[1] != "tank") continue;
+    std::vector<double> v;
+    for (std::size_t k = 0; k < f.size(); ++k)
+      if (k != 1) v.push_back(std::stod(f[k]));
+    window_sum += v.back();
+    tank.push_back(v);
+  }
+  EXPECT_EQ(rows, 2u * 10u);  // two bodies, one row each per 0.02 s (none at t = 0)
+  ASSERT_EQ(tank.size(), 10u);
+  EXPECT_NEAR(window_sum, 0.2, 1e-9);
+  EXPECT_NEAR(tank.back()[0], 0.2, 1e-9);
+  const nlohmann::json summary = readJson(dir.file("w/summary.json"));
+  for (int k = 0; k < 3; ++k)
+    EXPECT_NEAR(tank.back()[1 + k], summary["bodies"][0]["mean_force"][k].get<double>(),
+                1e-6 * (1.0 + std::abs(tank.back()[1 + k])))
+        << k;
+}
+
 TEST(Runner, SurfaceWritesAnObjBesideEveryFrameWithItsNumber)
 {
   test::TempDir dir;

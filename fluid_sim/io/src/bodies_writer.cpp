@@ -56,6 +56,41 @@ void BodiesCsvWriter::write(double t, const std::vector<BodyInfo>& bodies)
   }
 }
 
+const char* WrenchesCsvWriter::header()
+{
+  return "t,body,fx,fy,fz,tx,ty,tz,window_s";
+}
+
+WrenchesCsvWriter::WrenchesCsvWriter(const std::string& path, std::vector<std::string> names)
+    : CsvFile(path, header()), names_(std::move(names)), sum_(names_.size())
+{
+}
+
+void WrenchesCsvWriter::add(const std::vector<Wrench>& wrenches, double dt)
+{
+  for (std::size_t k = 0; k < sum_.size() && k < wrenches.size(); ++k)
+  {
+    sum_[k].force += dt * wrenches[k].force;
+    sum_[k].torque += dt * wrenches[k].torque;
+  }
+  window_ += dt;
+}
+
+void WrenchesCsvWriter::write(double t)
+{
+  if (!(window_ > 0.0)) return;
+  const auto vec = [this](const Vec3d& v) { out_ << ',' << v.x() << ',' << v.y() << ',' << v.z(); };
+  for (std::size_t k = 0; k < sum_.size(); ++k)
+  {
+    out_ << t << ',' << csvField(names_[k]);
+    vec(sum_[k].force / window_);
+    vec(sum_[k].torque / window_);
+    out_ << ',' << window_ << '\n';
+    sum_[k] = Wrench();
+  }
+  window_ = 0.0;
+}
+
 const char* SinksCsvWriter::header()
 {
   return "t,sink,particles,volume_m3,mass_kg";

@@ -1,7 +1,7 @@
 #pragma once
-// The runner's bodies.csv and sinks.csv. bodies.csv: the state of every free body (scene key `dynamic`, or a urdf
-// entry's free_links), one row per free body per measurement (the runner writes at its frame times, as regions.csv).
-// Created only when the scene has a free body. Columns, a contract read by name:
+// The runner's bodies.csv, wrenches.csv, sinks.csv and emitters.csv. bodies.csv: the state of every free body (scene
+// key `dynamic`, or a urdf entry's free_links), one row per free body per measurement (the runner writes at its frame
+// times, as regions.csv). Created only when the scene has a free body. Columns, a contract read by name:
 //   t,body,x,y,z,qx,qy,qz,qw,vx,vy,vz,wx,wy,wz,fx,fy,fz,tx,ty,tz
 // t in s; x y z the centre of mass, m, world; q the body's orientation (body -> world, unit
 // quaternion); v the centre of mass's velocity, m/s, world; w the angular velocity, rad/s, world;
@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "fluid_sim/core/simulation.h"
+#include "fluid_sim/io/run_summary.h"
 
 namespace fluid_sim
 {
@@ -48,6 +49,30 @@ public:
   void write(double t, const std::vector<BodyInfo>& bodies);
 
   static const char* header();
+};
+
+/// The runner's wrenches.csv: the fluid's force and torque on every body (static, scripted, posed
+/// or free, containers too), time-averaged over the steps since the previous row, one row per body
+/// per measurement (the same times as bodies.csv, no row before the first step). Created when the
+/// scene has a body. Columns, a contract read by name: t,body,fx,fy,fz,tx,ty,tz,window_s
+/// t in s (the row's end); f in N and the torque about the body's origin in N m, world axes (as
+/// summary.json's wrenches); window_s the simulated time averaged over, s.
+class WrenchesCsvWriter : public CsvFile
+{
+public:
+  /// Creates (truncates) `path` with the header; throws std::runtime_error naming the file.
+  WrenchesCsvWriter(const std::string& path, std::vector<std::string> names);
+  /// Adds one step's wrenches (body index order) over its time step `dt` (s).
+  void add(const std::vector<Wrench>& wrenches, double dt);
+  /// Writes the means since the last row, at simulated time `t` (s), and starts a new window;
+  /// nothing when no step was added since.
+  void write(double t);
+  static const char* header();
+
+private:
+  std::vector<std::string> names_;
+  std::vector<Wrench> sum_;  // N s and N m s over the window
+  double window_ = 0.0;      // s
 };
 
 /// The runner's sinks.csv: what each sink (scene key sinks) has removed since t = 0, one row per
