@@ -1310,6 +1310,73 @@ TEST(Errors, TinyRealTimeFactorFromReconfigureIsRefusedNotACrash)
   EXPECT_EQ(runToEnd(p, 20.0), 0) << readAll(p.log);
 }
 
+TEST(Errors, AnUnstableStepPausesUntilAResetWhichStartsItAgain)
+{
+  // Every step of this node is unstable. The first pauses it; a resume and a step are refused
+  // until a reset (a resume stepped the blown-up state on, 1e18 m/s); the reset starts it again,
+  // without a resume (it stayed paused, though the log said "call ~reset to start again"); and
+  // no unstable step's wrenches go out (they read 1e18 N on the robot's wrench topics).
+  std::vector<fluid_msgs::ContactWrenchArray::ConstPtr> wrenches;
+  std::mutex wrenches_mutex;
+  ros::NodeHandle nh;
+  ros::Subscriber sub = nh.subscribe<fluid_msgs::ContactWrenchArray>(
+      "/blows_up/contact_wrenches", 10, [&](const fluid_msgs::ContactWrenchArray::ConstPtr& m) {
+        std::lock_guard<std::mutex> lock(wrenches_mutex);
+        wrenches.push_back(m);
+      });
+  ros::AsyncSpinner spinner(1);
+  spinner.start();
+  Process p = spawnNode("blows_up", "/blows_up");
+  const auto unstableStats = [&]() -> fluid_msgs::SolverStats::ConstPtr {
+    const ros::WallTime start = ros::WallTime::now();
+    while ((ros::WallTime::now() - start).toSec() < waitSeconds(60.0))
+    {
+      auto stats = waitFor<fluid_msgs::SolverStats>("/blows_up/stats", 5.0);
+      if (stats && stats->status.rfind("unstable", 0) == 0 && stats->paused) return stats;
+    }
+    return nullptr;
+  };
+  auto stats = unstableStats();
+  ASSERT_TRUE(stats) << readAll(p.log);
+  EXPECT_NE(stats->status.find("max_density_error"), std::string::npos) << stats->status;
+
+  std_srvs::SetBool resume;
+  resume.request.data = false;
+  ASSERT_TRUE(ros::service::call("/blows_up/pause", resume));
+  EXPECT_FALSE(resume.response.success);
+  EXPECT_NE(resume.response.message.find("call ~reset first"), std::string::npos) << resume.response.message;
+  fluid_msgs::StepSimulation step;
+  step.request.steps = 3;
+  ASSERT_TRUE(ros::service::call("/blows_up/step", step));
+  EXPECT_FALSE(step.response.success);
+  EXPECT_NE(step.response.message.find("call ~reset first"), std::string::npos) << step.response.message;
+  EXPECT_GT(step.response.sim_time, 0.0);  // where it stands, not 0
+
+  std_srvs::Trigger reset;
+  ASSERT_TRUE(ros::service::call("/blows_up/reset", reset));
+  EXPECT_TRUE(reset.response.success) << reset.response.message;
+  // It runs again by itself and blows up again: the log says so a second time.
+  const ros::WallTime start = ros::WallTime::now();
+  std::size_t said = 0;
+  while ((ros::WallTime::now() - start).toSec() < waitSeconds(60.0))
+  {
+    const std::string out = readAll(p.log);
+    said = 0;
+    for (std::size_t at = out.find("simulation unstable at"); at != std::string::npos;
+         at = out.find("simulation unstable at", at + 1))
+      ++said;
+    if (said >= 2) break;
+    ros::WallDuration(0.2).sleep();
+  }
+  EXPECT_GE(said, 2u) << readAll(p.log);
+  {
+    std::lock_guard<std::mutex> lock(wrenches_mutex);
+    EXPECT_TRUE(wrenches.empty()) << wrenches.size() << " wrench messages from unstable steps";
+  }
+  kill(p.pid, SIGINT);
+  EXPECT_EQ(runToEnd(p, 20.0), 0) << readAll(p.log);
+}
+
 TEST(Errors, SceneFileResolvesRelativeMeshesAgainstItsFolder)
 {
   // config/mesh_tank.yaml names its tank ../meshes/octagon_tank.stl; loaded as parameters the

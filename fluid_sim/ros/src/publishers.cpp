@@ -239,6 +239,11 @@ void Publishers::run()
       fillBoundaryCloud(f.boundary, f.boundary_pressure, f.body_ranges, *cloud);
       pub_boundary_.publish(cloud);
     }
+    if (!f.valid)
+    {
+      pub_stats_.publish(f.stats);  // says "unstable: <why>"; nothing that reads as a measurement
+      continue;
+    }
     if (tf_)
     {
       // Before the wrenches stamped in them.

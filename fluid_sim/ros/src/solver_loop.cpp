@@ -181,6 +181,14 @@ CommandResult SolverLoop::reset()
 CommandResult SolverLoop::pause(bool paused)
 {
   std::lock_guard<std::mutex> lock(cmd_mutex_);
+  if (unstable_ && !paused)
+  {
+    CommandResult r;
+    r.success = false;
+    r.message = "the simulation became unstable (" + last_status_ + "): call ~reset first";
+    r.sim_time = sim_time_;
+    return r;
+  }
   if (paused_ && !paused) reanchor_ = true;  // resume: pacing restarts from where it stopped
   if (!paused && steps_requested_ > 0)
   {
@@ -199,6 +207,13 @@ CommandResult SolverLoop::step(unsigned steps)
 {
   std::unique_lock<std::mutex> lock(cmd_mutex_);
   CommandResult r;
+  r.sim_time = sim_time_;  // refusals say where the simulation stands too
+  if (unstable_)
+  {
+    r.success = false;
+    r.message = "the simulation became unstable (" + last_status_ + "): call ~reset first";
+    return r;
+  }
   if (!paused_)
   {
     r.success = false;
@@ -278,6 +293,17 @@ void SolverLoop::applyCommands()
       sim_->updateSettings(solver, visc, stab);  // live settings survive a reset
       steps_ = 0;
       last_status_ = "ok";
+      last_report_ = StepReport();  // the stats no longer show the blown-up step's speeds
+      if (unstable_)
+      {
+        // "Paused; call ~reset to start again": it starts again (it stayed paused until a resume).
+        unstable_ = false;
+        if (resume_after_reset_)
+        {
+          paused_ = false;
+          reanchor_ = true;
+        }
+      }
       ROS_INFO("reset: %zu fluid particles", sim_->numFluidParticles());
     }
     catch (const std::exception& e)
@@ -484,6 +510,8 @@ void SolverLoop::run()
       // or free body at the same stamp is TF_REPEATED_DATA to every tf listener.
       if (last_frame_sim_ != sim_->time()) publishFrame(rep, frame_rtf);
       std::lock_guard<std::mutex> lock(cmd_mutex_);
+      unstable_ = true;
+      resume_after_reset_ = !paused_;  // running, not stepping on request while paused
       paused_ = true;
       if (steps_requested_ > 0) ++steps_cancelled_;
       steps_requested_ = 0;
@@ -640,6 +668,7 @@ void SolverLoop::publishFrame(const StepReport& rep, double paced_rtf)
   last_frame_sim_ = sim_->time();
   Frame& f = publishers_.back();
   f.stamp = paced_rtf > 0.0 ? rosInstant(sim_->time(), paced_rtf) : ros::Time::now();
+  f.valid = !rep.unstable;
   f.fluid.positions = sim_->positions();
   f.fluid.velocities = sim_->velocities();
   f.fluid.pressures = sim_->pressures();

@@ -46,6 +46,10 @@ namespace ros_bridge
 struct Frame
 {
   ros::Time stamp;  // the simulated instant in ROS time (tf-coupled), else when the frame was taken
+  // False for the step that went unstable: its clouds and stats go out (to see what blew up), its
+  // wrenches, body transforms, free bodies and instrument readings do not (the wrench topics read
+  // 1e18 N there, which a controller listening to them alone would have acted on).
+  bool valid = true;
   FluidSnapshot fluid;
   bool boundary_valid = false;                                   // the boundary cloud below is to be published
   std::vector<Vec3> boundary;                                    // m, fixed frame

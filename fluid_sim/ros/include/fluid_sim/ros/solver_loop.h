@@ -158,6 +158,11 @@ private:
   // Written under cmd_mutex_ (the condition variable's predicates read it there); atomic so
   // that the solver thread may read it without the lock (publishFrame).
   std::atomic<bool> paused_{false};
+  // A step went unstable (under cmd_mutex_): the simulation is paused until a reset, which
+  // resumes it when it was running then (not when it was stepping on request, paused); a resume
+  // or a step before it is refused (it would step the blown-up state on).
+  bool unstable_ = false;
+  bool resume_after_reset_ = false;
   bool reset_requested_ = false;
   bool reset_done_ = false;
   std::string reset_error_;
