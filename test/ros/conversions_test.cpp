@@ -335,6 +335,22 @@ TEST(NodeParameters, EveryNumericParameterHasACheckedRangeNamedInTheError)
   EXPECT_EQ(startupError(fast), "");
 }
 
+TEST(NodeParameters, AnEmptyLinksListIsToldApartFromNone)
+{
+  // ~links: [] means every link, as an absent ~links does; the node warns about it (a user who
+  // wrote it most likely meant none), so the options must say it was given.
+  NodeParameters p;
+  p.ns = "/fluid_sim";
+  EXPECT_FALSE(readNodeOptions(p).links_given_empty);
+  p.values["links"].setSize(0);
+  EXPECT_TRUE(readNodeOptions(p).links_given_empty);
+  p.values["links"].setSize(1);
+  p.values["links"][0] = std::string("tank");
+  const NodeOptions one = readNodeOptions(p);
+  EXPECT_FALSE(one.links_given_empty);
+  EXPECT_EQ(one.links, std::vector<std::string>{"tank"});
+}
+
 TEST(NodeParameters, ReconfigureRefusesATinyRealTimeFactorAndNaN)
 {
   fluid_sim::FluidSimConfig current = fluid_sim::FluidSimConfig::__getDefault__();  // members have no initialisers

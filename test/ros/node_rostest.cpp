@@ -914,9 +914,29 @@ TEST(SimTime, SimulatedTimeFollowsClockNotWallTime)
   const double back_to = target - 10.0;
   publishClock(back_to);
   EXPECT_TRUE(advanceUntil([&] { return last.sim_time > sim_before_jump + 0.2 || clock_now > back_to + 3.0; }, 100.0));
+  double sim_before_forward;
+  {
+    std::lock_guard<std::mutex> lock(m);
+    EXPECT_GT(last.sim_time, sim_before_jump + 0.2)
+        << "stalled after /clock jumped back: clock " << clock_now << " s, simulated " << last.sim_time << " s";
+    sim_before_forward = last.sim_time;
+  }
+
+  // 5. The clock jumps forward by 1,000 s (a bag skipped ahead): the node carries on from the new
+  //    time at once, its stamps within a second of the clock. It took the jump for lag: every
+  //    stamp stayed 1,000 s in the past, catching up at 1.1-1.3 times real time.
+  const double ahead_to = clock_now + 1000.0;
+  publishClock(ahead_to);
+  EXPECT_TRUE(advanceUntil(
+      [&] {
+        return (last.sim_time > sim_before_forward + 0.2 && last.header.stamp.toSec() > ahead_to - 1.0) ||
+               clock_now > ahead_to + 5.0;
+      },
+      100.0));
   std::lock_guard<std::mutex> lock(m);
-  EXPECT_GT(last.sim_time, sim_before_jump + 0.2)
-      << "stalled after /clock jumped back: clock " << clock_now << " s, simulated " << last.sim_time << " s";
+  EXPECT_GT(last.header.stamp.toSec(), ahead_to - 1.0)
+      << "after /clock jumped forward to " << ahead_to << " s the stamps stayed at " << last.header.stamp.toSec();
+  EXPECT_GT(last.sim_time, sim_before_forward + 0.2);
 }
 
 // ------------------------------------------------------------------------------ surface.test

@@ -459,6 +459,11 @@ NodeOptions readNodeOptions(const NodeParameters& params)
   r.read("robot_description_param", opt.robot_description_param);
   r.read("fixed_frame", opt.fixed_frame);
   r.read("links", opt.links);
+  {
+    auto& values = const_cast<XmlRpc::XmlRpcValue&>(params.values);  // accessors are non-const; nothing is changed
+    opt.links_given_empty =
+        values.getType() == XmlRpc::XmlRpcValue::TypeStruct && values.hasMember("links") && opt.links.empty();
+  }
   r.read("container_links", opt.container_links);
   r.read("real_time_factor", opt.real_time_factor);
   r.read("publish_rate", opt.publish_rate);
@@ -550,6 +555,11 @@ std::vector<BoundaryConfig> readRobotLinks(const ros::NodeHandle& nh, const ros:
   try
   {
     const io::UrdfRobot robot = io::parseUrdf(xml, source);
+    if (opt.links_given_empty)
+      ROS_WARN(
+          "~links is an empty list: every link of %s with collision geometry is used, as without the "
+          "parameter; to run without the robot, set ~robot_description_param to \"\"",
+          source.c_str());
     io::UrdfBoundaryOptions u;
     u.links = opt.links;
     u.spacing = scene.spacing;

@@ -441,12 +441,21 @@ void SolverLoop::run()
         // (waiting for the old time line to come round again would stall the node for as long).
         const bool back = now < anchor_ros_ || (!last_seen_now_.isZero() && now < last_seen_now_);
         const ros::Time before = last_seen_now_.isZero() ? anchor_ros_ : last_seen_now_;
+        // Or forward (a bag skipped ahead, a simulator's clock set on): more than tf's reach the
+        // node relies on (kMaxPoseLag) beyond the wall time since it last looked. Taken for lag,
+        // every stamp stayed 1,000 s in the past and tf had no poses for them; a pause or a tf
+        // outage advances ROS time with the wall clock and is no jump.
+        const WallClock::time_point wall_now = WallClock::now();
+        const double wall_gap =
+            last_seen_now_.isZero() ? 0.0 : std::chrono::duration<double>(wall_now - last_seen_wall_).count();  // s
+        const bool ahead = !back && !last_seen_now_.isZero() && (now - before).toSec() > kMaxPoseLag + wall_gap;
         last_seen_now_ = now;
-        if (now >= due && !back) break;
-        if (back)
+        last_seen_wall_ = wall_now;
+        if (now >= due && !back && !ahead) break;
+        if (back || ahead)
         {
-          ROS_WARN("ROS time jumped back from %.3f to %.3f s; simulated time continues from there", before.toSec(),
-                   now.toSec());
+          ROS_WARN("ROS time jumped %s from %.3f to %.3f s; simulated time continues from there",
+                   back ? "back" : "forward", before.toSec(), now.toSec());
           std::lock_guard<std::mutex> lock(cmd_mutex_);
           reanchor_ = true;
           timeline_valid_ = false;

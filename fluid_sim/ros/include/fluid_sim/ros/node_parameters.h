@@ -32,6 +32,7 @@ struct NodeOptions
   std::string robot_description_param = "robot_description";  // "" = no robot
   std::string fixed_frame = "world";
   std::vector<std::string> links;            // empty = every link with collision geometry
+  bool links_given_empty = false;            // ~links was set to [] (warned about: it means every link)
   std::vector<std::string> container_links;  // links that hold water (inside: true)
   std::vector<FreeLinkOption> free_links;    // links that are free bodies, by link name
   double real_time_factor = 1.0;             // 1 (simulated s per ROS s); 1 = tf-coupled, 0 = as fast as it can

@@ -222,6 +222,7 @@ private:
   double sim_time_ = 0.0;                    // s, simulated time after the last step (a copy of sim_->time())
   WallClock::time_point last_paused_stats_;  // stats while paused or waiting for tf: at most one a second
   ros::Time last_seen_now_;                  // ROS time when the pacing last looked (a jump back is below it)
+  WallClock::time_point last_seen_wall_;     // wall time then (a jump forward outruns it)
 
   // Run statistics (for the summary printed at the end).
   std::uint64_t steps_ = 0, frames_ = 0;
