@@ -445,6 +445,37 @@ TEST(Tank, DynamicReconfigureStartsFromTheSceneAndChangesTheSolver)
   auto stats = waitFor<fluid_msgs::SolverStats>("/fluid_sim/stats", 5.0);
   ASSERT_TRUE(stats);
   EXPECT_EQ(stats->status, "ok");
+
+  // From as fast as it can (stamps: when a frame is taken) to in step with ROS time (stamps: the
+  // simulated instants, tf_delay behind) and back: the stamps never go back (they went back by
+  // 0.1 s at the switch).
+  std::vector<ros::Time> stamps;
+  std::mutex stamps_mutex;
+  ros::NodeHandle nh;
+  ros::Subscriber sub =
+      nh.subscribe<fluid_msgs::SolverStats>("/fluid_sim/stats", 100, [&](const fluid_msgs::SolverStats::ConstPtr& m) {
+        std::lock_guard<std::mutex> lock(stamps_mutex);
+        if (!m->paused) stamps.push_back(m->header.stamp);
+      });
+  ros::AsyncSpinner spinner(1);
+  spinner.start();
+  dynamic_reconfigure::DoubleParameter rtf;
+  rtf.name = "real_time_factor";
+  for (const double factor : {1.0, 0.0})
+  {
+    srv.request.config.ints.clear();
+    srv.request.config.doubles = {rtf};
+    srv.request.config.doubles[0].value = factor;
+    ros::WallDuration(1.0).sleep();
+    ASSERT_TRUE(ros::service::call("/fluid_sim/fluid_sim/set_parameters", srv));
+  }
+  ros::WallDuration(1.0).sleep();
+  sub.shutdown();
+  std::lock_guard<std::mutex> lock(stamps_mutex);
+  ASSERT_GT(stamps.size(), 10u);
+  for (std::size_t k = 1; k < stamps.size(); ++k)
+    EXPECT_GT(stamps[k], stamps[k - 1]) << "stats stamp " << k << " went back by "
+                                        << (stamps[k - 1] - stamps[k]).toSec() << " s";
 }
 
 TEST(Tank, PauseStepAndResetDoWhatTheySay)

@@ -134,6 +134,7 @@ void SolverLoop::build(const std::map<std::string, Pose>& poses, const ros::Time
   sim_time_ = sim_->time();  // build() runs before start() or under cmd_mutex_ (reset)
   boundary_dirty_ = true;
   last_frame_sim_ = -1.0;
+  last_frame_stamp_ = ros::Time();
   reanchor_ = true;
   rtf_sim0_ = 0.0;
   rtf_wall0_ = WallClock::now();
@@ -459,6 +460,7 @@ void SolverLoop::run()
           std::lock_guard<std::mutex> lock(cmd_mutex_);
           reanchor_ = true;
           timeline_valid_ = false;
+          last_frame_stamp_ = ros::Time();  // the new time line's stamps may lie before the old ones
           break;
         }
         {
@@ -677,6 +679,9 @@ void SolverLoop::publishFrame(const StepReport& rep, double paced_rtf)
   last_frame_sim_ = sim_->time();
   Frame& f = publishers_.back();
   f.stamp = paced_rtf > 0.0 ? rosInstant(sim_->time(), paced_rtf) : ros::Time::now();
+  if (!last_frame_stamp_.isZero() && f.stamp <= last_frame_stamp_)
+    f.stamp = last_frame_stamp_ + ros::Duration(0, 1000);  // 1 us on: a tf transform is never repeated
+  last_frame_stamp_ = f.stamp;
   f.valid = !rep.unstable;
   f.fluid.positions = sim_->positions();
   f.fluid.velocities = sim_->velocities();

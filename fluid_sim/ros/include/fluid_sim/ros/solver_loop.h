@@ -205,6 +205,10 @@ private:
   bool boundary_dirty_ = true;        // the boundary cloud must be (re)published
   std::vector<Pose> boundary_poses_;  // each body's pose when the boundary cloud last went out
   double last_frame_sim_ = -1.0;      // s, simulated time of the last frame published (-1: none since the build)
+  // Stamp of the last frame (zero after a build or a jump of ROS time): a frame is never stamped
+  // earlier (switching real_time_factor from 0 to paced put the next stamps on a time line 0.1 s
+  // behind the last).
+  ros::Time last_frame_stamp_;
   std::vector<std::pair<std::size_t, std::size_t>> body_ranges_;  // boundary particles of each body
   WrenchMeans wrench_means_;
   // The scene's instruments, measured once per published frame (the probes after every step when
