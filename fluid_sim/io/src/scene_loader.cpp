@@ -800,15 +800,15 @@ std::vector<BoundaryConfig> readUrdf(const Entry& e, const BoundaryConfig& commo
   for (const BoundaryConfig& body : bodies)
   {
     // Which of the link's collision elements make it so large: their meshes and scales.
+    const UrdfLink* link = robot.link(body.name);
     std::string meshes;
-    if (const UrdfLink* link = robot.link(body.name))
+    if (link)
       for (const UrdfCollision& c : link->collisions)
         if (c.type == UrdfCollision::Type::Mesh)
           meshes += std::string(meshes.empty() ? "; meshes " : ", ") + c.filename +
                     (c.scale == Vec3d::Ones() ? std::string()
                                               : " at scale " + numberText(c.scale.x()) + " " + numberText(c.scale.y()) +
                                                     " " + numberText(c.scale.z()));
-    const UrdfLink* link = robot.link(body.name);
     checkBudget(boundary, body, ctx,
                 "; link '" + body.name + "' of " + urdf_name +
                     (link && link->line > 0 ? " (URDF line " + std::to_string(link->line) + ")" : std::string()) +
