@@ -415,8 +415,11 @@ void SolverLoop::run()
         timeline_valid_ = true;
         reanchor_ = false;
         next_publish_sim_ = sim_->time();
+        // The achieved factor is measured afresh from here: the last second's window held the
+        // pause, and stats read 0.001 for a second after a resume while it ran at 1.2.
         rtf_sim0_ = sim_->time();
         rtf_wall0_ = WallClock::now();
+        rtf_first_window_ = true;
       }
     }
 
@@ -647,10 +650,11 @@ void SolverLoop::afterStep(const StepReport& rep, double paced_rtf)
     rtf_measured_ = (sim_->time() - rtf_sim0_) / wall;
     rtf_sim0_ = sim_->time();
     rtf_wall0_ = WallClock::now();
+    rtf_first_window_ = false;
   }
-  else if (rtf_measured_ == 0.0 && wall > 0.0)
+  else if (rtf_first_window_ && wall > 0.0)
   {
-    rtf_measured_ = (sim_->time() - rtf_sim0_) / wall;
+    rtf_measured_ = (sim_->time() - rtf_sim0_) / wall;  // the window so far, until it is a second long
   }
 
   const double rate = publish_rate_;

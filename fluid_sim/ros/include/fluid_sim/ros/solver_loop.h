@@ -200,6 +200,9 @@ private:
   WallClock::time_point rtf_wall0_ = WallClock::now();
   double rtf_sim0_ = 0.0;      // s, simulated time at rtf_wall0_
   double rtf_measured_ = 0.0;  // simulated s per wall s
+  // The measuring window started at the start or at a re-anchoring (a resume, a new factor) and is
+  // not a second long yet: rtf_measured_ is taken over it so far.
+  bool rtf_first_window_ = true;
 
   // Solver-thread state: frames.
   bool boundary_dirty_ = true;        // the boundary cloud must be (re)published
