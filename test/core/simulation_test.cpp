@@ -183,6 +183,20 @@ TEST(Simulation, FreeFallLeavesTheDomainAndIsCountedNotNaN)
   EXPECT_EQ(sim.removedTotal(), n);
 }
 
+TEST(Simulation, ABlowUpIsNamedAndItsSpeedIsNotZero)
+{
+  // Gravity beyond float's range: every velocity is infinite after one step. The report says so,
+  // and its largest speed is NaN, not the 0 a maximum over NaN gives (stats.csv read 0 beside it).
+  SceneConfig s = smallScene();
+  s.gravity = Vec3d(0, 0, -1e39);  // m/s^2, finite in double, not in float
+  Simulation sim(s);
+  StepReport r;
+  for (int k = 0; k < 3 && !r.unstable; ++k) r = sim.step();
+  ASSERT_TRUE(r.unstable);
+  EXPECT_NE(r.reason.find("non-finite position or velocity"), std::string::npos) << r.reason;
+  EXPECT_TRUE(std::isnan(r.max_speed)) << r.max_speed;
+}
+
 TEST(Simulation, ScriptedRotationMovesBoundaryParticlesRigidly)
 {
   SceneConfig s = smallScene();

@@ -3,6 +3,7 @@
 #include "fluid_sim/core/step_checks.h"
 
 #include <algorithm>
+#include <limits>
 #include <sstream>
 #include <string>
 
@@ -21,6 +22,8 @@ void checkStability(const FluidParticles& fluid, const SceneConfig& scene, Real 
   rep.kinetic_energy = 0.5 * double(mass) * parallelSum(n, [&](std::size_t i) { return double(v[i].squaredNorm()); });
   if (nonfinite > 0)
   {
+    // A maximum over NaN speeds compares false and read 0 in stats.csv beside the blow-up.
+    rep.max_speed = std::numeric_limits<double>::quiet_NaN();
     rep.unstable = true;
     rep.reason = std::to_string(std::size_t(nonfinite)) + " particles with non-finite position or velocity";
   }
