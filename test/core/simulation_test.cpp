@@ -187,6 +187,7 @@ TEST(Simulation, ABlowUpIsNamedAndItsSpeedIsNotZero)
 {
   // Gravity beyond float's range: every velocity is infinite after one step. The report says so,
   // and its largest speed is NaN, not the 0 a maximum over NaN gives (stats.csv read 0 beside it).
+  if (sizeof(Real) != sizeof(float)) GTEST_SKIP() << "the double build holds 1e39; the blow-up needs float's range";
   SceneConfig s = smallScene();
   s.gravity = Vec3d(0, 0, -1e39);  // m/s^2, finite in double, not in float
   Simulation sim(s);
