@@ -260,6 +260,25 @@ BodyState stateAt(BodySet& bodies, double t)
   const Body& b = bodies[0];
   return {b.pose, b.v_origin, b.omega, b.a_origin, b.alpha};
 }
+
+/// Velocities are the derivatives of the pose, accelerations those of the velocities (central
+/// differences over 2 us), at t0, t0 + step, ... up to t1 (s).
+void expectVelocitiesAreThePosesDerivatives(BodySet& bodies, double t0, double t1, double step)
+{
+  const double h = 1e-6;  // s
+  for (double t = t0; t <= t1 + 1e-12; t += step)
+  {
+    const BodyState m = stateAt(bodies, t - h);
+    const BodyState p = stateAt(bodies, t + h);
+    const BodyState st = stateAt(bodies, t);
+    const Vec3d v_fd = (p.pose.translation - m.pose.translation) / (2 * h);
+    const Vec3d w_fd = rotationVectorOf(p.pose.rotation * m.pose.rotation.conjugate()) / (2 * h);
+    EXPECT_LT((v_fd - st.v).norm(), 1e-8) << "t = " << t;
+    EXPECT_LT((w_fd - st.w).norm(), 1e-8) << "t = " << t;
+    EXPECT_LT(((p.v - m.v) / (2 * h) - st.a).norm(), 1e-6) << "t = " << t;
+    EXPECT_LT(((p.w - m.w) / (2 * h) - st.alpha).norm(), 1e-6) << "t = " << t;
+  }
+}
 }  // namespace
 
 TEST(Bodies, ScriptedMotionStartAndRampAreSmoothAndIntegrated)
@@ -303,19 +322,7 @@ TEST(Bodies, ScriptedMotionStartAndRampAreSmoothAndIntegrated)
 
   // Velocities are the derivatives of the pose, accelerations those of the velocities (central
   // differences), everywhere: before, at and after the start and the end of the ramp.
-  const double h = 1e-6;  // s
-  for (double t = 0.0; t <= 0.3 + 1e-12; t += 0.0125)
-  {
-    const BodyState m = stateAt(bodies, t - h);
-    const BodyState p = stateAt(bodies, t + h);
-    st = stateAt(bodies, t);
-    const Vec3d v_fd = (p.pose.translation - m.pose.translation) / (2 * h);
-    const Vec3d w_fd = rotationVectorOf(p.pose.rotation * m.pose.rotation.conjugate()) / (2 * h);
-    EXPECT_LT((v_fd - st.v).norm(), 1e-8) << "t = " << t;
-    EXPECT_LT((w_fd - st.w).norm(), 1e-8) << "t = " << t;
-    EXPECT_LT(((p.v - m.v) / (2 * h) - st.a).norm(), 1e-6) << "t = " << t;
-    EXPECT_LT(((p.w - m.w) / (2 * h) - st.alpha).norm(), 1e-6) << "t = " << t;
-  }
+  expectVelocitiesAreThePosesDerivatives(bodies, 0.0, 0.3, 0.0125);
 
   // The displacement is the integral of the reported velocity (Simpson over 0..0.3 s).
   const int n = 3000;
@@ -363,17 +370,7 @@ TEST(Bodies, ScriptedMotionStopsSmoothlyAndStaysWhereItGot)
   const double angle = (end.pose.rotation * paddle.pose.rotation.conjugate()).normalized().vec().norm();
   EXPECT_NEAR(2.0 * std::asin(angle), w_full.norm() * (0.4 - 0.05 - 0.1), 1e-12);
   // Velocities and accelerations are the pose's derivatives through the ramp down and the stop.
-  const double h = 1e-6;  // s
-  for (double t = 0.28; t <= 0.42 + 1e-12; t += 0.01)
-  {
-    const BodyState m = stateAt(bodies, t - h);
-    const BodyState p = stateAt(bodies, t + h);
-    st = stateAt(bodies, t);
-    EXPECT_LT(((p.pose.translation - m.pose.translation) / (2 * h) - st.v).norm(), 1e-8) << "t = " << t;
-    EXPECT_LT((rotationVectorOf(p.pose.rotation * m.pose.rotation.conjugate()) / (2 * h) - st.w).norm(), 1e-8)
-        << "t = " << t;
-    EXPECT_LT(((p.v - m.v) / (2 * h) - st.a).norm(), 1e-6) << "t = " << t;
-  }
+  expectVelocitiesAreThePosesDerivatives(bodies, 0.28, 0.42, 0.01);
   // The CFL speed ahead sees the motion while it runs and nothing once it has stopped.
   EXPECT_GT(bodies.maxSpeedAhead(0.3, 0.005), 0.0);
   EXPECT_EQ(bodies.maxSpeedAhead(0.4, 0.005), 0.0);
