@@ -4,10 +4,8 @@
 
 #include <cmath>
 #include <memory>
-#include <unordered_map>
 
 #include "fluid_sim/core/boundary_sampling.h"
-#include "fluid_sim/core/cell_key.h"
 #include "fluid_sim/core/neighbor_search.h"
 #include "fluid_sim/core/step_checks.h"
 
@@ -15,25 +13,26 @@ namespace fluid_sim
 {
 namespace
 {
-/// The boundary particles of a set of bodies in a grid, for the question "is a point closer than
-/// sqrt(radius_sq) to one of them?" (at most two spacings, the grid's cell). Distances in Real, as
-/// the particles are stored.
+/// Points in a grid, for the question "is a point closer than sqrt(radius_sq) to one of them?" (at
+/// most two spacings, the grid's cell): the boundary particles of some bodies, or the water an
+/// earlier fluid block placed. Distances in Real, as the particles are stored.
 class ProximityIndex
 {
 public:
-  template <class Select>
-  ProximityIndex(const SceneConfig& scene, const BodySet& bodies, double radius_sq, Select&& select)
-      : radius_sq_(Real(radius_sq))
+  ProximityIndex(const SceneConfig& scene, const std::vector<Vec3>& pts, double radius_sq) : radius_sq_(Real(radius_sq))
   {
-    std::vector<Vec3> pts;
-    for (const Body& body : bodies.bodies())
-      if (select(body))
-        pts.insert(pts.end(), bodies.x.begin() + body.offset, bodies.x.begin() + body.offset + body.local.size());
     if (pts.empty()) return;
     grid_ = std::make_unique<UniformGrid>(scene.domain.min, scene.domain.max, 2.0 * scene.spacing, 2);
     grid_->build(pts);
     points_.resize(grid_->numInside());
     for (std::size_t k = 0; k < points_.size(); ++k) points_[k] = pts[grid_->order()[k]];
+  }
+
+  /// The boundary particles of the bodies `select` picks.
+  template <class Select>
+  ProximityIndex(const SceneConfig& scene, const BodySet& bodies, double radius_sq, Select&& select)
+      : ProximityIndex(scene, selected(bodies, select), radius_sq)
+  {
   }
 
   bool near(const Vec3d& pos) const
@@ -48,42 +47,19 @@ public:
   }
 
 private:
+  template <class Select>
+  static std::vector<Vec3> selected(const BodySet& bodies, Select&& select)
+  {
+    std::vector<Vec3> pts;
+    for (const Body& body : bodies.bodies())
+      if (select(body))
+        pts.insert(pts.end(), bodies.x.begin() + body.offset, bodies.x.begin() + body.offset + body.local.size());
+    return pts;
+  }
+
   Real radius_sq_;  // m^2
   std::unique_ptr<UniformGrid> grid_;
   std::vector<Vec3> points_;  // m, world, in the grid's cell order
-};
-
-/// The particles placed so far, for "does earlier water lie closer than sqrt(radius_sq) to this
-/// point?": a hash grid of cells of the spacing (radius below it), growing as particles are added.
-class PlacedWater
-{
-public:
-  PlacedWater(double spacing, double radius) : cell_(spacing), radius_sq_(radius * radius) {}
-
-  void add(const Vec3d& pos)
-  {
-    cells_[cellKeyOf(pos, cell_)].push_back(pos);
-  }
-
-  bool near(const Vec3d& pos) const
-  {
-    const CellKey key = cellKeyOf(pos, cell_);
-    for (long long dz = -1; dz <= 1; ++dz)
-      for (long long dy = -1; dy <= 1; ++dy)
-        for (long long dx = -1; dx <= 1; ++dx)
-        {
-          const auto it = cells_.find({key.x + dx, key.y + dy, key.z + dz});
-          if (it == cells_.end()) continue;
-          for (const Vec3d& q : it->second)
-            if ((q - pos).squaredNorm() < radius_sq_) return true;
-        }
-    return false;
-  }
-
-private:
-  double cell_;       // m
-  double radius_sq_;  // m^2
-  std::unordered_map<CellKey, std::vector<Vec3d>, CellKeyHash> cells_;
 };
 
 bool isOpenShell(const Body& body)
@@ -152,9 +128,7 @@ FillResult fillFluid(const SceneConfig& scene, const BodySet& bodies, FluidParti
   // lattice: every point inside it lies within about 0.87 s of a particle, while water that only
   // touches it keeps a spacing). Before, each block was filled in full: a block listed twice
   // started at twice rest density, and the relaxation pushed the excess through the tank's walls.
-  const bool several = scene.fluid.size() > 1;
-  PlacedWater placed_lattice(sp, 0.5 * sp), placed_saved(sp, 0.9 * sp);
-  const auto overlapsEarlier = [&](const Vec3d& pos, std::size_t block_index) {
+  const auto insideEarlierBox = [&](const Vec3d& pos, std::size_t block_index) {
     for (std::size_t e = 0; e < block_index; ++e)
     {
       const FluidBlockConfig& earlier = scene.fluid[e];
@@ -163,7 +137,7 @@ FillResult fillFluid(const SceneConfig& scene, const BodySet& bodies, FluidParti
       if ((pos.array() > earlier.box.min.array() + tol).all() && (pos.array() < earlier.box.max.array() - tol).all())
         return true;
     }
-    return placed_lattice.near(pos) || placed_saved.near(pos);
+    return false;
   };
   for (std::size_t b = 0; b < scene.fluid.size(); ++b)
   {
@@ -186,7 +160,6 @@ FillResult fillFluid(const SceneConfig& scene, const BodySet& bodies, FluidParti
         }
         fluid.add(pos.cast<Real>(), p.velocities[k].cast<Real>(), rho0);
         result.kind.push_back(FillKind::Explicit);
-        if (several) placed_saved.add(pos);
       }
       continue;
     }
@@ -220,7 +193,12 @@ FillResult fillFluid(const SceneConfig& scene, const BodySet& bodies, FluidParti
                                 " m^3 of water, " + numberText(std::round(100.0 * held / volume)) + " % of its " +
                                 numberText(volume) + " m^3; give extents that are multiples of the spacing");
     }
-    const std::size_t first_of_block = fluid.size();
+    // The water the blocks before this one placed, lattice and saved apart (built once per block).
+    std::vector<Vec3> lattice_water, saved_water;
+    for (std::size_t k = 0; k < fluid.size(); ++k)
+      (result.kind[k] == FillKind::Explicit ? saved_water : lattice_water).push_back(fluid.x[k]);
+    const ProximityIndex earlier_lattice(scene, lattice_water, 0.25 * sp * sp);
+    const ProximityIndex earlier_saved(scene, saved_water, 0.81 * sp * sp);
     for (int k = 0; k < n[2]; ++k)
       for (int j = 0; j < n[1]; ++j)
         for (int i = 0; i < n[0]; ++i)
@@ -237,7 +215,7 @@ FillResult fillFluid(const SceneConfig& scene, const BodySet& bodies, FluidParti
             ++result.trimmed;
             continue;
           }
-          if (several && overlapsEarlier(pos, b))
+          if (b > 0 && (insideEarlierBox(pos, b) || earlier_lattice.near(pos) || earlier_saved.near(pos)))
           {
             ++result.dropped;
             ++result.overlapped;
@@ -249,9 +227,6 @@ FillResult fillFluid(const SceneConfig& scene, const BodySet& bodies, FluidParti
           const bool face = i == 0 || j == 0 || k == 0 || i == n[0] - 1 || j == n[1] - 1 || k == n[2] - 1;
           result.kind.push_back(face ? FillKind::LatticeFace : FillKind::LatticeInterior);
         }
-    // Added after the block, so that its own points never block each other.
-    if (several)
-      for (std::size_t k = first_of_block; k < fluid.size(); ++k) placed_lattice.add(fluid.x[k].cast<double>());
   }
   // A scene whose water all comes from emitters starts dry.
   if (fluid.size() == 0 && !scene.fluid.empty())
