@@ -304,6 +304,19 @@ double sampleSpacing(const BoundaryConfig& b, double spacing)
   return spacing;
 }
 
+AxisBox boundsOf(const std::vector<Vec3d>& points)
+{
+  AxisBox box;
+  if (points.empty()) return box;
+  box.min = box.max = points.front();
+  for (const Vec3d& p : points)
+  {
+    box.min = box.min.cwiseMin(p);
+    box.max = box.max.cwiseMax(p);
+  }
+  return box;
+}
+
 namespace
 {
 constexpr double kSpeedOfSoundInWater = 1480.0;  // m/s, at 20 degrees C
@@ -331,13 +344,12 @@ double farthestFrom(const BoundaryConfig& b, const Vec3d& point)
       break;
     }
     case ShapeType::Mesh:
-      lo = hi = b.mesh.vertices.empty() ? Vec3d::Zero() : b.mesh.vertices[0];
-      for (const Vec3d& v : b.mesh.vertices)
-      {
-        lo = lo.cwiseMin(v);
-        hi = hi.cwiseMax(v);
-      }
+    {
+      const AxisBox bounds = boundsOf(b.mesh.vertices);
+      lo = bounds.min;
+      hi = bounds.max;
       break;
+    }
   }
   double farthest = 0.0;
   for (int k = 0; k < 8; ++k)

@@ -223,13 +223,8 @@ MeshFile readMeshFile(const std::string& path, const Vec3d& scale)
 
   // Join by position: STL repeats every corner per face (with the face normal, so assimp's own
   // joining keeps them apart), and separate meshes of one file may meet along an edge.
-  Vec3d lo = soup.vertices[0], hi = soup.vertices[0];
-  for (const auto& v : soup.vertices)
-  {
-    lo = lo.cwiseMin(v);
-    hi = hi.cwiseMax(v);
-  }
-  const double diagonal = (hi - lo).norm();
+  const AxisBox bounds = boundsOf(soup.vertices);
+  const double diagonal = (bounds.max - bounds.min).norm();
   MeshFile out;
   if (!(diagonal > 0.0)) throw ConfigError(path, "all vertices coincide: the mesh has no extent (scale zero?)");
   const std::vector<int> map = joinVertices(soup.vertices, 1e-7 * diagonal, out.mesh.vertices);

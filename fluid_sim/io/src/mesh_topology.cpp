@@ -91,13 +91,8 @@ TopologyView topologyView(const TriangleMesh& mesh)
   TopologyView view;
   const int n = static_cast<int>(mesh.vertices.size());
   if (n == 0) return view;
-  Vec3d lo = mesh.vertices[0], hi = mesh.vertices[0];
-  for (const Vec3d& v : mesh.vertices)
-  {
-    lo = lo.cwiseMin(v);
-    hi = hi.cwiseMax(v);
-  }
-  const double diagonal = (hi - lo).norm();  // m
+  const AxisBox bounds = boundsOf(mesh.vertices);
+  const double diagonal = (bounds.max - bounds.min).norm();  // m
   std::vector<int> parent(n);
   std::iota(parent.begin(), parent.end(), 0);
   std::vector<int> all(n);

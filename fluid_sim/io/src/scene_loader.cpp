@@ -507,13 +507,8 @@ void checkBudget(const Entry& e, const BoundaryConfig& b, const LoadContext& ctx
   std::string size;
   if (b.type == ShapeType::Mesh && !b.mesh.vertices.empty())
   {
-    Vec3d lo = Vec3d::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
-    for (const Vec3d& v : b.mesh.vertices)
-    {
-      lo = lo.cwiseMin(v);
-      hi = hi.cwiseMax(v);
-    }
-    const Vec3d extent = hi - lo;
+    const AxisBox bounds = boundsOf(b.mesh.vertices);
+    const Vec3d extent = bounds.max - bounds.min;
     size = " (its mesh spans " + numberText(extent.x()) + " x " + numberText(extent.y()) + " x " +
            numberText(extent.z()) + " m" + about + ")";
   }

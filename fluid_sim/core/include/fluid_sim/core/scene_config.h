@@ -65,6 +65,9 @@ struct AxisBox
   }
 };
 
+/// The smallest axis-aligned box holding `points` (m); a zero box when there are none.
+AxisBox boundsOf(const std::vector<Vec3d>& points);
+
 struct SphereShape
 {
   Vec3d center = Vec3d::Zero();  // m
