@@ -818,6 +818,54 @@ TEST(SceneLoader, UrdfFreeLinks)
   expectError(two, "boundaries[1].sample_spacing", "must not exceed");
 }
 
+TEST(SceneLoader, UrdfThinLinksAreMeantAsThinShellsOneByOne)
+{
+  // A paddle blade made as one sheet is meant as a thin shell; the entry's offset: none would say
+  // so for every link (putting a closed link's layer on its surface too), thin_links for the
+  // blade alone. It was warned about on every run of the demo.
+  test::TempDir dir;
+  dir.write("blade.obj", "v 0 -0.05 0\nv 0 0.05 0\nv 0 0.05 -0.1\nv 0 -0.05 -0.1\nf 1 2 3\nf 1 3 4\n");
+  dir.write("arm.obj",  // a closed tetrahedron: a mesh, not a primitive
+            "v 0 0 0\nv 0.1 0 0\nv 0 0.1 0\nv 0 0 0.1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n");
+  const std::string urdf = dir.write("robot.urdf", R"(<robot name="stirrer">
+  <link name="arm"><collision><geometry><mesh filename="arm.obj"/></geometry></collision></link>
+  <link name="blade"><collision><geometry><mesh filename="blade.obj"/></geometry></collision></link>
+  <link name="tip"/>
+  <joint name="wrist" type="fixed"><parent link="arm"/><child link="blade"/><origin xyz="0 0 -0.05"/></joint>
+  <joint name="end" type="fixed"><parent link="blade"/><child link="tip"/></joint>
+</robot>)");
+  const auto byName = [](const SceneConfig& s, const std::string& name) -> const BoundaryConfig& {
+    return *std::find_if(s.boundaries.begin(), s.boundaries.end(),
+                         [&](const BoundaryConfig& b) { return b.name == name; });
+  };
+  const auto openWarnings = [](const SceneConfig& s) {
+    return std::count_if(s.warnings.begin(), s.warnings.end(),
+                         [](const std::string& w) { return w.find("not a closed surface") != std::string::npos; });
+  };
+  const SceneConfig plain = parseScene(boatScene(urdf, "      links: [arm, blade]\n"), "scene.yaml");
+  EXPECT_EQ(openWarnings(plain), 1);
+  const SceneConfig thin =
+      parseScene(boatScene(urdf, "      links: [arm, blade]\n      thin_links: [blade]\n"), "scene.yaml");
+  EXPECT_EQ(openWarnings(thin), 0);
+  EXPECT_EQ(byName(thin, "blade").mesh_offset, SurfaceOffset::None);
+  EXPECT_EQ(byName(thin, "arm").mesh_offset, SurfaceOffset::Auto);  // the closed link keeps its offset
+  EXPECT_TRUE(byName(thin, "arm").mesh_closed);
+  // The entry's offset: none still applies to every link.
+  const SceneConfig all =
+      parseScene(boatScene(urdf, "      thin_links: [blade]\n") + "    offset: none\n", "scene.yaml");
+  EXPECT_EQ(byName(all, "arm").mesh_offset, SurfaceOffset::None);
+
+  expectError(boatScene(urdf, "      thin_links: [blad]\n"), "boundaries[0].urdf.thin_links[0]",
+              "unknown link 'blad' in " + urdf + " (links: ");
+  expectError(boatScene(urdf, "      thin_links: [blade, blade]\n"), "boundaries[0].urdf.thin_links[1]",
+              "link 'blade' is listed twice");
+  expectError(boatScene(urdf, "      links: [arm]\n      thin_links: [blade]\n"), "boundaries[0].urdf.thin_links[0]",
+              "link 'blade' in " + urdf + " is not one of this entry's bodies");
+  expectError(boatScene(urdf, "      thin_links: [tip]\n"), "boundaries[0].urdf.thin_links[0]",
+              "without collision geometry; bodies: arm or blade)");
+  expectError(boatScene(urdf, "      thin_links: blade\n"), "boundaries[0].urdf.thin_links", "expected a list");
+}
+
 TEST(SceneLoader, ImpossibleMotionsViscosityAndVelocitiesAreNamed)
 {
   const std::string plate =

@@ -660,9 +660,10 @@ SpillConfig readSpill(const Entry& e)
   return spill;
 }
 
-/// urdf: {file, links, joint_positions, free_links}: one body per selected link, each with the
-/// entry's common keys (`common`: inside, pose of the root link, motion, sample_spacing, external,
-/// offset); the links named in free_links are free bodies (their `dynamic`). `boundary` is the
+/// urdf: {file, links, thin_links, joint_positions, free_links}: one body per selected link, each
+/// with the entry's common keys (`common`: inside, pose of the root link, motion, sample_spacing,
+/// external, offset, which thin_links overrides with none for its links); the links named in
+/// free_links are free bodies (their `dynamic`). `boundary` is the
 /// whole `boundaries[i]` entry, which the particle budget's message names.
 std::vector<BoundaryConfig> readUrdf(const Entry& e, const BoundaryConfig& common, double finest_spacing,
                                      const LoadContext& ctx, const Entry& boundary)
@@ -698,6 +699,24 @@ std::vector<BoundaryConfig> readUrdf(const Entry& e, const BoundaryConfig& commo
       if (std::find(options.links.begin(), options.links.end(), name) != options.links.end())
         throw ConfigError(item.key, "link '" + name + "' is listed twice" + lineOf(item.node));
       options.links.push_back(name);
+    });
+  // thin_links: links whose surface is a thin shell meant as one (offset none for them alone);
+  // whether each has a body in this entry is known once the bodies are built (below).
+  std::vector<Entry> thin_items;
+  if (auto thin = r.get("thin_links"))
+    forEachItem(*thin, [&](const Entry& item) {
+      const std::string name = readScalar<std::string>(item);
+      if (!robot.link(name))
+      {
+        std::vector<std::string> names;
+        for (const auto& l : robot.links) names.push_back(l.name);
+        throw ConfigError(item.key, "unknown link '" + name + "' in " + urdf_name +
+                                        " (links: " + joinNames(names, " or ") + ")" + lineOf(item.node));
+      }
+      if (std::find(options.thin_links.begin(), options.thin_links.end(), name) != options.thin_links.end())
+        throw ConfigError(item.key, "link '" + name + "' is listed twice" + lineOf(item.node));
+      options.thin_links.push_back(name);
+      thin_items.push_back(item);
     });
   if (auto positions = r.get("joint_positions"))
   {
@@ -774,7 +793,21 @@ std::vector<BoundaryConfig> readUrdf(const Entry& e, const BoundaryConfig& commo
     b.motion = common.motion;
     b.sample_spacing = common.sample_spacing;
     b.externally_posed = common.externally_posed;
-    b.mesh_offset = common.mesh_offset;
+    if (std::find(options.thin_links.begin(), options.thin_links.end(), b.name) == options.thin_links.end())
+      b.mesh_offset = common.mesh_offset;  // a thin link's is None (urdfBoundaries)
+  }
+  for (const Entry& item : thin_items)
+  {
+    const std::string name = readScalar<std::string>(item);
+    if (std::none_of(bodies.begin(), bodies.end(), [&](const BoundaryConfig& b) { return b.name == name; }))
+    {
+      std::vector<std::string> names;
+      for (const auto& b : bodies) names.push_back(b.name);
+      throw ConfigError(item.key, "link '" + name + "' in " + urdf_name +
+                                      " is not one of this entry's bodies (not in links, or without collision "
+                                      "geometry; bodies: " +
+                                      joinNames(names, " or ") + ")" + lineOf(item.node));
+    }
   }
   for (const FreeLink& link : free_links)
   {

@@ -4,6 +4,7 @@
 #include <tinyxml2.h>
 #include <urdf_parser/urdf_parser.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <map>
@@ -491,6 +492,7 @@ std::vector<BoundaryConfig> urdfBoundaries(const UrdfRobot& robot, const UrdfBou
       if (warnings) warnings->push_back(robot.source + ": link '" + name + "' has no collision geometry; skipped");
       continue;
     }
+    const bool thin = std::find(options.thin_links.begin(), options.thin_links.end(), name) != options.thin_links.end();
     BoundaryConfig b;
     b.name = name;
     b.pose = poses.count(name) ? poses.at(name) : options.root_pose;
@@ -527,10 +529,11 @@ std::vector<BoundaryConfig> urdfBoundaries(const UrdfRobot& robot, const UrdfBou
       b.mesh_closed = surface.closed;
       if (warnings)
         for (auto& note :
-             surfaceNotes(robot.source + ": link '" + name + "'", surface.closed || options.thin_shells_meant,
+             surfaceNotes(robot.source + ": link '" + name + "'", surface.closed || options.thin_shells_meant || thin,
                           surface.border_edges, surface.degenerate_triangles))
           warnings->push_back(std::move(note));
     }
+    if (thin) b.mesh_offset = SurfaceOffset::None;
     out.push_back(std::move(b));
   }
   return out;

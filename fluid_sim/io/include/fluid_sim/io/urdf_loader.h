@@ -132,6 +132,10 @@ struct UrdfBoundaryOptions
   bool exact_primitives = true;
   /// The scene says `offset: none`: open links are meant as thin shells and are not warned about.
   bool thin_shells_meant = false;
+  /// Links meant as thin shells one by one (the node's ~thin_links): each gets mesh_offset None
+  /// (its particle layer on the collision surface) and, if open, no warning. Names not among the
+  /// bodies made are ignored here; the caller checks them against the result.
+  std::vector<std::string> thin_links;
 };
 
 /// One BoundaryConfig per selected link, named after the link, pose = the link's pose in the world,
