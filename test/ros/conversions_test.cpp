@@ -378,6 +378,42 @@ TEST(NodeParameters, ReconfigureRefusesATinyRealTimeFactorAndNaN)
   EXPECT_EQ(fine.real_time_factor, 0.5);
 }
 
+TEST(NodeParameters, ReconfigureKeepsASceneValueOutsideTheCfgRangeThatARequestOnlyClamped)
+{
+  // The server starts from the scene's values; dynamic_reconfigure clamps every field of a request
+  // to the .cfg's range, the fields the caller did not touch too. A publish_rate change cut a
+  // scene's density_error 1e-10 to the range's 1e-9 and a viscosity of 2 m^2/s to 1, silently.
+  fluid_sim::FluidSimConfig current = fluid_sim::FluidSimConfig::__getDefault__();
+  const fluid_sim::FluidSimConfig& lo = fluid_sim::FluidSimConfig::__getMin__();
+  const fluid_sim::FluidSimConfig& hi = fluid_sim::FluidSimConfig::__getMax__();
+  current.density_error = lo.density_error / 10.0;
+  current.divergence_error = hi.divergence_error * 2.0;
+  current.viscosity_model = "artificial";
+  current.viscosity_coefficient = hi.viscosity_coefficient * 2.0;
+  current.max_iterations = 200;
+  fluid_sim::FluidSimConfig requested = current;
+  requested.__clamp__();  // what the server does before the callback
+  ASSERT_EQ(requested.density_error, lo.density_error);
+  requested.publish_rate = 10.0;
+  EXPECT_TRUE(checkReconfigure(requested, current).empty());
+  EXPECT_EQ(requested.density_error, current.density_error);
+  EXPECT_EQ(requested.divergence_error, current.divergence_error);
+  EXPECT_EQ(requested.viscosity_coefficient, current.viscosity_coefficient);
+  EXPECT_EQ(requested.max_iterations, 200);
+  EXPECT_EQ(requested.publish_rate, 10.0);  // the change asked for
+  // A value inside the range that the caller did change is taken, also from one outside it.
+  requested = current;
+  requested.__clamp__();
+  requested.density_error = 0.002;
+  requested.viscosity_coefficient = 0.5;
+  EXPECT_TRUE(checkReconfigure(requested, current).empty());
+  EXPECT_EQ(requested.density_error, 0.002);
+  EXPECT_EQ(requested.viscosity_coefficient, 0.5);
+  // The iteration ranges reach the scene's own limit (10000), so a scene's count is shown as it is.
+  EXPECT_EQ(hi.max_iterations, 10000);
+  EXPECT_EQ(hi.min_iterations, 10000);
+}
+
 TEST(NodeParameters, ReconfigureRefusesUnknownNamesAndSolverSettingsTheSceneRefuses)
 {
   SceneConfig scene;
@@ -678,6 +714,44 @@ boundaries:
   Simulation no_sim(scene);
   run(100.0, t0 + 200.0, no_links, no_sim);
   EXPECT_TRUE(no_links.historyBegin().isZero());
+}
+
+TEST(LinkPoses, PosesHoldAtAnyInstantWithoutLinksOrWithStaticOnes)
+{
+  // The solver loop warned "further than the links' poses are kept" and drew its instant along
+  // with ROS time in a scene without links; what it poses then holds at any instant.
+  ros::Time::init();
+  const SceneConfig scene = io::parseScene(R"yaml(
+spacing: 0.05
+domain: {min: [-1, -1, -1], max: [1, 1, 1]}
+fluid:
+  - box: {min: [0.5, 0.5, 0.5], max: [0.7, 0.7, 0.7]}
+boundaries:
+  - name: pusher
+    box: {min: [-0.05, -0.05, -0.05], max: [0.05, 0.05, 0.05]}
+    external: true
+)yaml",
+                                           "scene.yaml");
+  NodeOptions opt;
+  LinkPoses none(opt);
+  EXPECT_TRUE(none.posesHoldAtAnyInstant());
+
+  Simulation sim(scene);
+  LinkPoses links(opt);
+  links.attach(sim, {"pusher"}, {{"pusher", Pose()}});
+  EXPECT_FALSE(links.posesHoldAtAnyInstant());  // tf does not know it yet
+  geometry_msgs::TransformStamped m;
+  m.header.frame_id = "world";
+  m.child_frame_id = "pusher";
+  m.transform.rotation.w = 1.0;
+  ASSERT_TRUE(links.buffer().setTransform(m, "test", true));  // static
+  EXPECT_TRUE(links.posesHoldAtAnyInstant());
+
+  LinkPoses moving(opt);
+  moving.attach(sim, {"pusher"}, {{"pusher", Pose()}});
+  m.header.stamp = ros::Time(1000.0);
+  ASSERT_TRUE(moving.buffer().setTransform(m, "test"));
+  EXPECT_FALSE(moving.posesHoldAtAnyInstant());
 }
 
 TEST(NodeParameters, SceneFileYamlBecomesParametersAsRosparamMakesThem)
@@ -1194,6 +1268,65 @@ TEST(FreeLinks, BadValuesAreRefusedNamingTheLink)
     EXPECT_NE(what.find(phrase), std::string::npos) << "'" << phrase << "' not in: " << what;
     EXPECT_NE(what.find(ns + "/free_links"), std::string::npos) << what;
   }
+}
+
+TEST(NodeParameters, ListedLinksMustBeAmongTheLinksUsed)
+{
+  // ~container_links and ~thin_links name links of the robot; a typo ends start-up naming the
+  // parameter, the link and the links there are.
+  const std::vector<BoundaryConfig> links = robotLinks();
+  const std::string param = "/fluid_sim/fluid_sim/thin_links";
+  EXPECT_EQ(startupError([&] { checkListedLinks({}, links, param); }), "");
+  EXPECT_EQ(startupError([&] { checkListedLinks({"pusher", "tank"}, links, param); }), "");
+  const std::string what = startupError([&] { checkListedLinks({"tank", "pusherr"}, links, param); });
+  EXPECT_NE(what.find("parameter " + param +
+                      ": link 'pusherr' is not among the links used (2 links with collision "
+                      "geometry: tank, pusher)"),
+            std::string::npos)
+      << what;
+  EXPECT_NE(startupError([&] { checkListedLinks({"tank"}, {}, param); }).find("0 links with collision geometry: none"),
+            std::string::npos);
+}
+
+TEST(NodeParameters, ThinLinksAreANodeKeyReadAsAList)
+{
+  NodeParameters p;
+  p.ns = "/fluid_sim";
+  p.values["thin_links"].setSize(1);
+  p.values["thin_links"][0] = std::string("paddle");
+  EXPECT_EQ(readNodeOptions(p).thin_links, std::vector<std::string>{"paddle"});
+  EXPECT_TRUE(nodeKeys().count("thin_links"));  // not passed to the scene loader as a scene key
+}
+
+TEST(NodeParameters, SceneErrorsNameNoLineOfTheGeneratedYamlAndSuggestNodeParameters)
+{
+  // The node's scene is YAML made from the parameter server: "(line 4)" pointed at a line of it,
+  // not of the scene file, and a misspelt node parameter got only scene keys as suggestions.
+  NodeParameters p;
+  p.ns = "/fluid_sim/fluid_sim";
+  const std::string base =
+      "spacing: 0.05\ndomain: {min: [0, 0, 0], max: [1, 1, 1]}\nfluid:\n  - box: {min: [0.1, 0.1, 0.1], max: [0.5, "
+      "0.5, "
+      "0.5]}\n";
+  p.values = yamlToParameters(base + "solver: {density_eror: 0.001}\n");
+  std::string what = startupError([&] { readScene(p); });
+  EXPECT_NE(what.find("solver.density_eror: unknown key (did you mean 'density_error'?)"), std::string::npos) << what;
+  EXPECT_EQ(what.find("(line "), std::string::npos) << what;
+
+  p.values = yamlToParameters(base + "publish_rat: 10\n");
+  what = startupError([&] { readScene(p); });
+  EXPECT_NE(what.find("publish_rat: unknown key (did you mean the node parameter 'publish_rate'?)"), std::string::npos)
+      << what;
+  EXPECT_EQ(what.find("(line "), std::string::npos) << what;
+
+  // A scene key that is nearer keeps its suggestion; a URDF's own line stays.
+  EXPECT_EQ(sceneErrorText("s.yaml: spacng: unknown key (did you mean 'spacing'?) (line 2)", "spacng"),
+            "s.yaml: spacng: unknown key (did you mean 'spacing'?)");
+  EXPECT_EQ(
+      sceneErrorText("s.yaml: boundaries[0].urdf: robot.urdf: bad joint (URDF line 7) (line 12)", "boundaries[0].urdf"),
+      "s.yaml: boundaries[0].urdf: robot.urdf: bad joint (URDF line 7)");
+  EXPECT_EQ(sceneErrorText("s.yaml: thin_link: unknown key (known keys: spacing, fluid)", "thin_link"),
+            "s.yaml: thin_link: unknown key (did you mean the node parameter 'thin_links'?)");
 }
 
 TEST(FreeLinks, AFreeLinkKeepsItsLinkNameAsItsFrameAndIsOnTf)

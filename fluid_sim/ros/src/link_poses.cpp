@@ -273,6 +273,16 @@ std::vector<std::string> LinkPoses::historyFrames() const
   return frames;
 }
 
+bool LinkPoses::posesHoldAtAnyInstant()
+{
+  for (const std::string& frame : historyFrames())
+  {
+    const std::optional<ros::Time> at = newestStamp(frame);
+    if (!at || !at->isZero()) return false;
+  }
+  return true;
+}
+
 void LinkPoses::keepHistory(const ros::Time& needed, const ros::Time& now)
 {
   if (opt_.pose_history <= 0.0 || needed.isZero() || now.isZero()) return;

@@ -7,6 +7,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <limits>
+#include <regex>
 #include <sstream>
 
 #include <ros/console.h>
@@ -15,6 +16,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include "fluid_sim/io/file_util.h"
+#include "fluid_sim/io/message_names.h"
 #include "fluid_sim/io/resource_resolver.h"
 #include "fluid_sim/io/scene_loader.h"
 #include "fluid_sim/io/urdf_loader.h"
@@ -29,7 +31,7 @@ namespace ros_bridge
 const std::set<std::string>& nodeKeys()
 {
   static const std::set<std::string> keys = {
-      "scene_file", "robot_description_param", "fixed_frame", "links", "container_links", "free_links",
+      "scene_file", "robot_description_param", "fixed_frame", "links", "container_links", "thin_links", "free_links",
       "real_time_factor", "publish_rate", "surface_rate", "max_points", "tf_delay", "tf_wait_timeout", "pose_history",
       "stop_after", "threads", "publish_boundary", "wrench_window", "probe_window",
       // dynamic_reconfigure (cfg/FluidSim.cfg)
@@ -84,6 +86,29 @@ std::vector<std::string> checkReconfigure(fluid_sim::FluidSimConfig& requested,
                                           const fluid_sim::FluidSimConfig& current, const SceneConfig* scene)
 {
   std::vector<std::string> warnings;
+  // dynamic_reconfigure clamps every field of a request to the .cfg's range, also the ones the
+  // caller left alone, and the server starts from the scene's values, which may lie outside it (a
+  // scene's max_iterations 20000, a density_error 1e-9): a publish_rate change silently cut them
+  // to the range. A field whose request is the clamp of its current value outside the range was
+  // not changed by the caller; it keeps its value.
+  {
+    const fluid_sim::FluidSimConfig& lo = fluid_sim::FluidSimConfig::__getMin__();
+    const fluid_sim::FluidSimConfig& hi = fluid_sim::FluidSimConfig::__getMax__();
+    auto unclamp = [](auto& value, auto kept, auto min, auto max) {
+      if ((kept < min && value == min) || (kept > max && value == max)) value = kept;
+    };
+    unclamp(requested.density_error, current.density_error, lo.density_error, hi.density_error);
+    unclamp(requested.divergence_error, current.divergence_error, lo.divergence_error, hi.divergence_error);
+    unclamp(requested.min_iterations, current.min_iterations, lo.min_iterations, hi.min_iterations);
+    unclamp(requested.max_iterations, current.max_iterations, lo.max_iterations, hi.max_iterations);
+    unclamp(requested.viscosity_coefficient, current.viscosity_coefficient, lo.viscosity_coefficient,
+            hi.viscosity_coefficient);
+    unclamp(requested.boundary_viscosity, current.boundary_viscosity, lo.boundary_viscosity, hi.boundary_viscosity);
+    unclamp(requested.publish_rate, current.publish_rate, lo.publish_rate, hi.publish_rate);
+    unclamp(requested.real_time_factor, current.real_time_factor, lo.real_time_factor, hi.real_time_factor);
+    unclamp(requested.max_points, current.max_points, lo.max_points, hi.max_points);
+    unclamp(requested.surface_rate, current.surface_rate, lo.surface_rate, hi.surface_rate);
+  }
   auto refuse = [&](const std::string& key, double value, const std::string& why, double kept) {
     warnings.push_back("dynamic_reconfigure: " + key + " = " + number(value) + " refused (" + why + "); keeping " +
                        number(kept));
@@ -401,6 +426,20 @@ void applyFreeLinks(const std::vector<FreeLinkOption>& free, std::vector<Boundar
   }
 }
 
+void checkListedLinks(const std::vector<std::string>& listed, const std::vector<BoundaryConfig>& links,
+                      const std::string& param)
+{
+  for (const std::string& name : listed)
+  {
+    if (std::any_of(links.begin(), links.end(), [&](const BoundaryConfig& b) { return b.name == name; })) continue;
+    std::string names;
+    for (const BoundaryConfig& b : links) names += (names.empty() ? "" : ", ") + b.name;
+    throw StartupError("parameter " + param + ": link '" + name + "' is not among the links used (" +
+                       std::to_string(links.size()) +
+                       " links with collision geometry: " + (names.empty() ? "none" : names) + ")");
+  }
+}
+
 NodeParameters readNodeParameters(const ros::NodeHandle& pnh)
 {
   NodeParameters p;
@@ -465,6 +504,7 @@ NodeOptions readNodeOptions(const NodeParameters& params)
         values.getType() == XmlRpc::XmlRpcValue::TypeStruct && values.hasMember("links") && opt.links.empty();
   }
   r.read("container_links", opt.container_links);
+  r.read("thin_links", opt.thin_links);
   r.read("real_time_factor", opt.real_time_factor);
   r.read("publish_rate", opt.publish_rate);
   r.read("surface_rate", opt.surface_rate);
@@ -484,6 +524,37 @@ NodeOptions readNodeOptions(const NodeParameters& params)
   }
   checkNodeOptions(opt, params.ns);
   return opt;
+}
+
+std::string withoutYamlLines(const std::string& text)
+{
+  // The loader reads YAML made from the parameter server (sceneYaml), not the scene file: its
+  // line numbers point at nothing a user can open. (A URDF's "(URDF line N)" is the URDF's own.)
+  static const std::regex line(" \\(line [0-9]+\\)");
+  return std::regex_replace(text, line, "");
+}
+
+std::string sceneErrorText(const std::string& what, const std::string& key)
+{
+  std::string text = withoutYamlLines(what);
+  // A misspelt node parameter reaches the scene loader as an unknown top-level scene key, whose
+  // hint lists scene keys only: suggest the node parameter when it is the nearer name.
+  if (key.empty() || key.find_first_of(".[") != std::string::npos) return text;
+  const std::string unknown = key + ": unknown key";
+  const std::size_t at = text.find(unknown);
+  if (at == std::string::npos) return text;
+  const std::vector<std::string> node_keys(nodeKeys().begin(), nodeKeys().end());
+  const std::string best = io::closestName(key, node_keys, 3);
+  if (best.empty()) return text;
+  const std::size_t hint = at + unknown.size();
+  const std::string said = text.substr(hint);
+  const std::string prefix = " (did you mean '";
+  if (said.rfind(prefix, 0) == 0)
+  {
+    const std::string scene_best = said.substr(prefix.size(), said.find('\'', prefix.size()) - prefix.size());
+    if (io::editDistance(key, scene_best) <= io::editDistance(key, best)) return text;
+  }
+  return text.substr(0, hint) + " (did you mean the node parameter '" + best + "'?)";
 }
 
 SceneConfig readScene(const NodeParameters& params)
@@ -513,9 +584,9 @@ SceneConfig readScene(const NodeParameters& params)
   }
   catch (const ConfigError& e)
   {
-    throw StartupError(std::string("scene: ") + e.what());
+    throw StartupError("scene: " + sceneErrorText(e.what(), e.key()));
   }
-  for (const std::string& w : scene.warnings) ROS_WARN("%s", w.c_str());
+  for (const std::string& w : scene.warnings) ROS_WARN("%s", withoutYamlLines(w).c_str());
   return scene;
 }
 
@@ -562,20 +633,14 @@ std::vector<BoundaryConfig> readRobotLinks(const ros::NodeHandle& nh, const ros:
           source.c_str());
     io::UrdfBoundaryOptions u;
     u.links = opt.links;
+    u.thin_links = opt.thin_links;
     u.spacing = scene.spacing;
     u.packages = [](const std::string& pkg) { return ros::package::getPath(pkg); };
     std::vector<std::string> warnings;
     std::vector<BoundaryConfig> links = io::urdfBoundaries(robot, u, &warnings);
     for (const std::string& w : warnings) ROS_WARN("%s", w.c_str());
-    std::set<std::string> names;
-    for (const BoundaryConfig& b : links) names.insert(b.name);
-    for (const std::string& c : opt.container_links)
-    {
-      if (!names.count(c))
-        throw StartupError("parameter " + pnh.getNamespace() + "/container_links: link '" + c +
-                           "' is not among the links used (" + std::to_string(names.size()) +
-                           " links with collision geometry)");
-    }
+    checkListedLinks(opt.container_links, links, pnh.getNamespace() + "/container_links");
+    checkListedLinks(opt.thin_links, links, pnh.getNamespace() + "/thin_links");
     for (BoundaryConfig& b : links)
     {
       b.externally_posed = true;

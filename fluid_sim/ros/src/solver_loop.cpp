@@ -613,7 +613,10 @@ ros::Time SolverLoop::poseStamp(double t)
   // instant drawn along with ROS time, so that they move on continuously, faster than they do,
   // instead of jumping to their newest pose (the demo's paddle, jumping 60 s of motion on a loaded
   // machine, made every particle NaN).
-  if (now.toSec() > kMaxPoseLag && at < now - ros::Duration(kMaxPoseLag) && !links_.historyCovers(at))
+  // (Without a link or tf-fixed nozzle to pose, or with only static ones, nothing is posed from an
+  // instant: no clamp, and no warning about links.)
+  if (now.toSec() > kMaxPoseLag && at < now - ros::Duration(kMaxPoseLag) && !links_.historyCovers(at) &&
+      !links_.posesHoldAtAnyInstant())
   {
     ros::Time oldest = now - ros::Duration(kMaxPoseLag);
     const ros::Time recorded = links_.historyBegin();

@@ -90,6 +90,11 @@ public:
   /// True if the record holds instants on both sides of `stamp` (poseBodies() uses it there).
   bool historyCovers(const ros::Time& stamp) const;
 
+  /// True when there is no link or emitter frame to pose, or tf has every one of them only as
+  /// static transforms: their poses hold at any instant, so how far the simulation is behind ROS
+  /// time does not matter for posing them. False while a frame is unknown to tf.
+  bool posesHoldAtAnyInstant();
+
   /// The recorded instants, oldest first (zero each when there is no record).
   ros::Time historyBegin() const;
   ros::Time historyEnd() const;

@@ -34,6 +34,7 @@ struct NodeOptions
   std::vector<std::string> links;            // empty = every link with collision geometry
   bool links_given_empty = false;            // ~links was set to [] (warned about: it means every link)
   std::vector<std::string> container_links;  // links that hold water (inside: true)
+  std::vector<std::string> thin_links;       // links meant as thin shells (a urdf entry's offset: none)
   std::vector<FreeLinkOption> free_links;    // links that are free bodies, by link name
   double real_time_factor = 1.0;             // 1 (simulated s per ROS s); 1 = tf-coupled, 0 = as fast as it can
   double publish_rate = 30.0;                // Hz
@@ -123,6 +124,20 @@ std::vector<FreeLinkOption> readFreeLinks(const XmlRpc::XmlRpcValue& value, cons
 /// namespace `ns`), the link and the value.
 void applyFreeLinks(const std::vector<FreeLinkOption>& free, std::vector<BoundaryConfig>& links,
                     const SceneConfig& scene, const std::string& ns);
+
+/// Throws StartupError naming `param` (the parameter's full name) and the link for the first name
+/// in `listed` that is not the name of one of `links` (the robot's bodies), listing those.
+void checkListedLinks(const std::vector<std::string>& listed, const std::vector<BoundaryConfig>& links,
+                      const std::string& param);
+
+/// `text` without the scene loader's " (line N)" marks: the node's scene is YAML made from the
+/// parameter server, whose lines are no file's.
+std::string withoutYamlLines(const std::string& text);
+
+/// The text of a scene loader error (`what`, for the key `key`) as the node reports it: without
+/// line marks, and for an unknown top-level key nearer a node parameter than any scene key, with
+/// that parameter as the suggestion.
+std::string sceneErrorText(const std::string& what, const std::string& key);
 
 /// The scene from the keys of `params` that are not in nodeKeys(), checked by the scene loader;
 /// relative file names in it resolve against the scene file's folder (the working directory
