@@ -5,7 +5,7 @@ Runs the scenes of config/validation/ with the headless runner (fluid_sim_run), 
 each case is about from summary.json, stats.csv and the PLY frames, and writes CSV files and PNG
 plots to docs/validation/ and the report docs/validation.md.
 
-    /usr/bin/python3 scripts/validate.py                # the full suite (one to two hours on 2 cores)
+    /usr/bin/python3 scripts/validate.py                # the full suite (two to three hours on 2 cores)
     /usr/bin/python3 scripts/validate.py --quick        # the small CI versions (out/validation-quick/)
     /usr/bin/python3 scripts/validate.py --case 4       # one case (repeatable); the report keeps the others
     options: --runner PATH (default build/fluid_sim_run), --jobs N (runs at once, default: cores),
@@ -15,7 +15,9 @@ plots to docs/validation/ and the report docs/validation.md.
 Cases: 1 Table 1 of the paper (cylinder dam break, time step sweep), 2 rotating sphere at rest,
 3 deep water column, 4 dam break against Martin & Moyce (1952), 5 speed against error,
 6 largest stable time step on hard cases (bisection), 7 Archimedes on a fixed submerged cube
-(--extra-runner LABEL=PATH adds other builds of the runner to case 7). Needs numpy and matplotlib (Debian's
+(--extra-runner LABEL=PATH adds other builds of the runner to case 7), 8 free bodies (floating
+drafts, heave decay, a pushed box, a ball in the washing machine), 9 pouring (a tap fills a cup
+that tips into a second cup). Needs numpy and matplotlib (Debian's
 python3-numpy, python3-matplotlib); no network.
 """
 import argparse

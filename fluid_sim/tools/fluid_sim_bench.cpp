@@ -9,6 +9,7 @@
 // the peak resident set size (getrusage ru_maxrss) is a process-wide maximum that never drops.
 
 #include <sys/resource.h>
+#include <unistd.h>
 
 #include <tbb/global_control.h>
 #include <CLI/CLI.hpp>
@@ -18,6 +19,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <limits>
@@ -287,7 +289,8 @@ int main(int argc, char** argv)
           },
           "METRES"));
   app.add_option("--method", methods,
-                 "boundary pressure: mirroring | sph | mls | all, repeatable (default: the scene's)")
+                 "boundary pressure: mirroring | mirroring_eq2 | sph | mls | all (mirroring, sph and mls), repeatable "
+                 "(default: the scene's)")
       ->allow_extra_args(false)
       ->take_all();
   app.add_option("--json", json_path, "also write the rows as JSON to FILE");
@@ -348,6 +351,24 @@ int main(int argc, char** argv)
   {
     std::fprintf(stderr, "fluid_sim_bench: %s\n", e.what());
     return 2;
+  }
+
+  // A --json file that cannot be written fails now, not after every row has run (it is written,
+  // whole, at the end; nothing is created before).
+  if (!json_path.empty())
+  {
+    const std::filesystem::path file(json_path);
+    const std::filesystem::path dir = file.has_parent_path() ? file.parent_path() : std::filesystem::path(".");
+    std::error_code ec;
+    const bool exists = std::filesystem::exists(file, ec);
+    const bool writable = exists ? !std::filesystem::is_directory(file, ec) && ::access(json_path.c_str(), W_OK) == 0
+                                 : std::filesystem::is_directory(dir, ec) && ::access(dir.c_str(), W_OK) == 0;
+    if (!writable)
+    {
+      std::fprintf(stderr, "fluid_sim_bench: --json %s: cannot write there (%s)\n", json_path.c_str(),
+                   exists ? "not a writable file" : "no writable folder");
+      return 1;
+    }
   }
 
   std::printf("fluid_sim_bench: scene %s, Real = %s, %zu threads, %d warm-up + %d measured steps per row\n",

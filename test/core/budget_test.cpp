@@ -92,7 +92,26 @@ TEST(Budget, IterationAndTimeStepLimits)
   EXPECT_NE(errorOf(s).find("time_step.max: must be <= 1 s"), std::string::npos) << errorOf(s);
   s = smallScene();
   s.time_step.fixed = 1e-12;
-  EXPECT_NE(errorOf(s).find("time_step.fixed: must be in [1e-07, 1] s, got 1e-12"), std::string::npos) << errorOf(s);
+  EXPECT_NE(errorOf(s).find("time_step.fixed: must be in [1e-07, 0.1] s, got 1e-12"), std::string::npos) << errorOf(s);
+  // One range in every message: 0.5 s said "<= 0.1 s", 2 s "in [1e-07, 1] s".
+  for (double dt : {0.5, 2.0})
+  {
+    s.time_step.fixed = dt;
+    EXPECT_NE(errorOf(s).find("time_step.fixed: must be in [1e-07, 0.1] s, got"), std::string::npos) << errorOf(s);
+  }
+  s.time_step.fixed = 0.1;
+  EXPECT_EQ(errorOf(s), "");
+  // A bad XSPH boundary coefficient is named as itself (it was reported as viscosity.coefficient).
+  s = smallScene();
+  s.viscosity.model = ViscosityModel::Xsph;
+  s.viscosity.coefficient = 0.1;
+  s.viscosity.boundary = 2.0;
+  EXPECT_NE(errorOf(s).find("viscosity.boundary: XSPH coefficients must be <= 1, got 2"), std::string::npos)
+      << errorOf(s);
+  s.viscosity.boundary = 0.1;
+  s.viscosity.coefficient = 1.5;
+  EXPECT_NE(errorOf(s).find("viscosity.coefficient: XSPH coefficients must be <= 1, got 1.5"), std::string::npos)
+      << errorOf(s);
 }
 
 TEST(Budget, BoundaryVolumesCostMemoryByParticlesNotByTheirBoundingBox)
