@@ -120,6 +120,45 @@ TEST(Runner, OverridesAndDuration)
   EXPECT_NEAR(readJson(dir.file("cfl/summary.json"))["simulated_time_s"].get<double>(), 0.1, 1e-12);
 }
 
+TEST(Runner, TheLastTwoStepsShareARemainderSoNoStepIsTiny)
+{
+  // Still water; --duration 0.20002 with 4 ms steps left a last step of 2e-5 s, in which the
+  // density solve removed the leftover compression of a whole step: the tank's force read
+  // -312,685 N for 157 N of water (another scene), with status ok.
+  test::TempDir dir;
+  dir.write("tiny.yaml", kTinyScene);
+  const std::string still =
+      "tiny.yaml --threads 1 --set time_step.fixed=0.004 --set output.frame_interval=0 "
+      "--set 'fluid[0].box={min: [0, 0, 0], max: [0.4, 0.4, 0.15]}' --set 'boundaries=[{name: tank, box: {min: [0, 0, "
+      "0], max: [0.4, 0.4, 0.5]}, inside: true}]'";
+  const RunResult whole = run(dir, still + " --out whole --duration 0.2");
+  ASSERT_EQ(whole.exit_code, 0) << whole.err;
+  const RunResult odd = run(dir, still + " --out odd --duration 0.20002");
+  ASSERT_EQ(odd.exit_code, 0) << odd.err;
+  const nlohmann::json a = readJson(dir.file("whole/summary.json"));
+  const nlohmann::json b = readJson(dir.file("odd/summary.json"));
+  EXPECT_NEAR(b["simulated_time_s"].get<double>(), 0.20002, 1e-12);
+  // The last two steps are 2.01 ms each.
+  std::istringstream in(test::readFile(dir.file("odd/stats.csv")));
+  std::string line;
+  std::getline(in, line);
+  double smallest = 1.0;
+  while (std::getline(in, line))
+  {
+    std::istringstream row(line);
+    std::string step, t, dt;
+    std::getline(row, step, ',');
+    std::getline(row, t, ',');
+    std::getline(row, dt, ',');
+    smallest = std::min(smallest, std::stod(dt));
+  }
+  EXPECT_NEAR(smallest, 0.5 * (0.20002 - 0.196), 1e-9);
+  // The tank's force in the last step stays that of still water (about its weight).
+  const double weight_force = a["bodies"][0]["force"][2].get<double>();  // N, the last whole step's
+  ASSERT_LT(weight_force, 0.0);
+  EXPECT_NEAR(b["bodies"][0]["force"][2].get<double>() / weight_force, 1.0, 0.25);
+}
+
 TEST(Runner, WritesEveryBodysWrenchHistory)
 {
   // wrenches.csv: each body's force and torque averaged between the measurement times (a force
