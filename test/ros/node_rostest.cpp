@@ -733,28 +733,66 @@ TEST(Pusher, MovingALinkThroughTfMovesItsParticlesAndItsWrench)
     EXPECT_EQ(while_still, 0u) << "boundary clouds sent while the link was held still";
   }
 
-  std::lock_guard<std::mutex> lock(m);
-  double sum = 0;
-  int n = 0;
-  for (const auto& [stamp, fz] : force_z)
-    if (stamp > hold_start + settle && stamp <= hold_start + hold)
-    {
-      sum += fz;
-      ++n;
-    }
-  ASSERT_GT(n, 5) << "no wrenches while held under water";
-  // Held still under water, the fluid pushes the cube up by its buoyancy,
-  // rho g V = 1000 kg/m^3 * 9.81 m/s^2 * (0.08 m)^3 = 5.02 N.
-  const double buoyancy = 1000.0 * 9.81 * 0.08 * 0.08 * 0.08;
-  EXPECT_NEAR(sum / n, buoyancy, 0.05 * buoyancy) << "mean force z from " << settle << " s after the stop";
-  double late_rms = 0;
-  for (const auto& [stamp, v] : rms_speed)
-    if (stamp > hold_start + settle && stamp <= hold_start + hold) late_rms = std::max(late_rms, v);
-  // The water settles around the still cube (0.007 m/s measured; the descent stirred it to 0.05).
-  EXPECT_LT(late_rms, 0.015) << "rms speed of the water from " << settle << " s after the stop";
-  std::printf("pusher: rms speed of the water from %.1f s after the stop: at most %.4f m/s\n", settle, late_rms);
-  std::printf("pusher: above water %.3f N, held under water %.3f N (rho g V = %.3f N), %d messages, %.1f s wall\n",
-              above, sum / n, buoyancy, n, (ros::WallTime::now() - wall_start).toSec());
+  {
+    std::lock_guard<std::mutex> lock(m);
+    double sum = 0;
+    int n = 0;
+    for (const auto& [stamp, fz] : force_z)
+      if (stamp > hold_start + settle && stamp <= hold_start + hold)
+      {
+        sum += fz;
+        ++n;
+      }
+    ASSERT_GT(n, 5) << "no wrenches while held under water";
+    // Held still under water, the fluid pushes the cube up by its buoyancy,
+    // rho g V = 1000 kg/m^3 * 9.81 m/s^2 * (0.08 m)^3 = 5.02 N.
+    const double buoyancy = 1000.0 * 9.81 * 0.08 * 0.08 * 0.08;
+    EXPECT_NEAR(sum / n, buoyancy, 0.05 * buoyancy) << "mean force z from " << settle << " s after the stop";
+    double late_rms = 0;
+    for (const auto& [stamp, v] : rms_speed)
+      if (stamp > hold_start + settle && stamp <= hold_start + hold) late_rms = std::max(late_rms, v);
+    // The water settles around the still cube (0.007 m/s measured; the descent stirred it to 0.05).
+    EXPECT_LT(late_rms, 0.015) << "rms speed of the water from " << settle << " s after the stop";
+    std::printf("pusher: rms speed of the water from %.1f s after the stop: at most %.4f m/s\n", settle, late_rms);
+    std::printf("pusher: above water %.3f N, held under water %.3f N (rho g V = %.3f N), %d messages, %.1f s wall\n",
+                above, sum / n, buoyancy, n, (ros::WallTime::now() - wall_start).toSec());
+  }
+
+  // Paused, the link moves on tf; a reset builds the scene around where tf has it now, and a step
+  // asked for then poses it there. It was posed at the first build's instant (where it was at
+  // z_high): the water, placed around the new pose, was struck (a QA user's run blew up).
+  ASSERT_TRUE(ros::service::waitForService("/fluid_sim/pause", 10000));
+  std_srvs::SetBool pause;
+  pause.request.data = true;
+  ASSERT_TRUE(ros::service::call("/fluid_sim/pause", pause));
+  ASSERT_TRUE(pause.response.success) << pause.response.message;
+  const double z_new = 0.33;  // m, above the water, away from z_high
+  auto tickPaused = [&](double z) {
+    now += tick;
+    tf.sendTransform(transform("pusher", 0.2, 0.1, z, ros::Time(now)));
+    rosgraph_msgs::Clock c;
+    c.clock = ros::Time(now);
+    clock_pub.publish(c);
+    ros::WallDuration(tick).sleep();
+  };
+  for (int k = 0; k < 100; ++k) tickPaused(z_low + (z_new - z_low) * (k + 1) / 100.0);  // up in 0.5 s
+  for (int k = 0; k < 40; ++k) tickPaused(z_new);
+  // Keep the clock and tf going while the services run (the node asks tf for now's poses).
+  std::atomic<bool> ticking{true};
+  std::thread ticker([&] {
+    while (ticking) tickPaused(z_new);
+  });
+  std_srvs::Trigger reset;
+  const bool reset_called = ros::service::call("/fluid_sim/reset", reset);
+  fluid_msgs::StepSimulation step;
+  step.request.steps = 1;
+  const bool step_called = reset_called && reset.response.success && ros::service::call("/fluid_sim/step", step);
+  ros::WallDuration(0.5).sleep();  // the step's boundary cloud, if the link moved in it
+  ticking = false;
+  ticker.join();
+  ASSERT_TRUE(reset_called && reset.response.success) << reset.response.message;
+  ASSERT_TRUE(step_called && step.response.success) << step.response.message;
+  EXPECT_NEAR(pusherMeanZ(), z_new, 0.01) << "the first step after a reset while paused posed the link elsewhere";
 }
 
 // ------------------------------------------------------------------------------ lag.test

@@ -373,7 +373,11 @@ void SolverLoop::run()
         std::this_thread::sleep_for(std::chrono::milliseconds(10));
         continue;
       }
-      if (reanchor_ && !stepping_on_request)
+      // A step asked for while paused goes on along the time line; a fresh build (a reset while
+      // paused) has none yet, so it is anchored here too, at the build's instant: anchored at
+      // the earlier build's instant instead, the first requested step posed the links where they
+      // had been then (4-6 cm off the water's hole for a link moving at 0.09 m/s; the run blew up).
+      if (reanchor_ && (!stepping_on_request || !timeline_valid_))
       {
         const ros::Time now = ros::Time::now();
         if (timeline_valid_)
