@@ -183,7 +183,8 @@ std::string vectorText(const fluid_sim::Vec3d& v)
 }
 
 void printSummary(const fluid_sim::io::RunSummary& s, const fluid_sim::FillReport& fill, bool relax_on,
-                  double relax_tolerance, const fs::path& out_dir, std::size_t frames)
+                  double relax_tolerance, const fluid_sim::SolverConfig& solver, const fs::path& out_dir,
+                  std::size_t frames)
 {
   std::printf("scene    %s (%s, spacing %g m, %d threads)\n", s.scene.c_str(), s.method.c_str(), s.spacing, s.threads);
   std::printf("fluid    %zu particles (%zu at start, %zu removed at start, %zu left the domain), %zu boundary\n",
@@ -220,6 +221,15 @@ void printSummary(const fluid_sim::io::RunSummary& s, const fluid_sim::FillRepor
   std::printf("solver   %.2f divergence, %.2f density iterations/step; density error mean %.3g %%, max %.3g %%\n",
               s.mean_divergence_iterations, s.mean_density_iterations, 100.0 * s.mean_density_error,
               100.0 * s.max_density_error);
+  // Not an instability (the run goes on), but not the accuracy asked for either: said, with the
+  // counts in summary.json (the node marks such steps not_converged in its stats).
+  if (s.density_not_converged_steps > 0 || s.divergence_not_converged_steps > 0)
+    std::printf(
+        "warning  %zu of %zu steps ended the density solve and %zu the divergence solve at solver.max_iterations "
+        "(%d) above their tolerances (solver.density_error %.3g %%, divergence_error %.3g %%): the water is more "
+        "compressed than asked; raise solver.max_iterations or shorten the time step\n",
+        s.density_not_converged_steps, s.steps, s.divergence_not_converged_steps, solver.max_iterations,
+        100.0 * solver.density_error, 100.0 * solver.divergence_error);
   for (const auto& body : s.bodies)
     std::printf("body     %s: mean force %s N, mean torque %s N m\n", body.name.c_str(),
                 vectorText(body.mean.force).c_str(), vectorText(body.mean.torque).c_str());
@@ -457,7 +467,8 @@ int run(const Options& options)
   summary.reason = reason;
   summary.spill = spill;
   io::writeSummaryJson((out_dir / "summary.json").string(), summary);
-  printSummary(summary, sim->fillReport(), sim->scene().fill.relax, sim->scene().fill.relax_tolerance, out_dir, frames);
+  printSummary(summary, sim->fillReport(), sim->scene().fill.relax, sim->scene().fill.relax_tolerance,
+               sim->scene().solver, out_dir, frames);
   if (measurements > 0)
   {
     std::printf("measured %zu times (%.3f ms each)", measurements, measure_ms / double(measurements));

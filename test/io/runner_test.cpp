@@ -159,6 +159,33 @@ TEST(Runner, TheLastTwoStepsShareARemainderSoNoStepIsTiny)
   EXPECT_NEAR(b["bodies"][0]["force"][2].get<double>() / weight_force, 1.0, 0.25);
 }
 
+TEST(Runner, SolvesStoppedAtMaxIterationsAreCountedAndSaid)
+{
+  // One iteration per solve cannot reach 0.1 %: the water sank 8 mm and read 0.825 rho g h at a
+  // probe, with status ok and nothing said (the node's stats say not_converged per step).
+  test::TempDir dir;
+  dir.write("tiny.yaml", kTinyScene);
+  const std::string still =
+      "tiny.yaml --threads 1 --duration 0.2 --set time_step.fixed=0.004 --set output.frame_interval=0 "
+      "--set 'fluid[0].box={min: [0, 0, 0], max: [0.4, 0.4, 0.15]}' --set 'boundaries=[{name: tank, box: {min: [0, 0, "
+      "0], max: [0.4, 0.4, 0.5]}, inside: true}]'";
+  const RunResult r = run(dir, still +
+                                   " --out nc --set solver.max_iterations=1 --set solver.min_iterations=0 "
+                                   "--set solver.min_divergence_iterations=0");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json s = readJson(dir.file("nc/summary.json"));
+  EXPECT_EQ(s["status"], "ok");  // not an instability: the run goes on
+  EXPECT_GT(s["density_not_converged_steps"].get<int>(), 0);
+  EXPECT_LE(s["density_not_converged_steps"].get<int>(), s["steps"].get<int>());
+  EXPECT_NE(r.out.find("steps ended the density solve"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("at solver.max_iterations (1)"), std::string::npos) << r.out;
+  // The defaults converge here: no count, no warning.
+  const RunResult plain = run(dir, still + " --out ok");
+  ASSERT_EQ(plain.exit_code, 0) << plain.err;
+  EXPECT_EQ(readJson(dir.file("ok/summary.json"))["density_not_converged_steps"], 0);
+  EXPECT_EQ(plain.out.find("steps ended the density solve"), std::string::npos) << plain.out;
+}
+
 TEST(Runner, WritesEveryBodysWrenchHistory)
 {
   // wrenches.csv: each body's force and torque averaged between the measurement times (a force

@@ -136,6 +136,8 @@ TEST(RunStatistics, MeansAndTailWrench)
     r.divergence_iterations = 1;
     r.density_iterations = s % 2 == 0 ? 4 : 2;
     r.density_error = 0.001 * s;
+    r.density_converged = s != 5;         // one step at max_iterations
+    r.divergence_converged = s % 4 != 0;  // five
     const io::Wrench tank{Vec3d(s, 0, 0), Vec3d(0, 0, 2.0 * s)};
     const io::Wrench ball{Vec3d(0, 0, -1), Vec3d::Zero()};
     stats.add(r, 1.5, {tank, ball});
@@ -152,6 +154,8 @@ TEST(RunStatistics, MeansAndTailWrench)
   EXPECT_DOUBLE_EQ(summary.mean_density_iterations, 3.0);
   EXPECT_NEAR(summary.mean_density_error, 0.0105, 1e-12);
   EXPECT_NEAR(summary.max_density_error, 0.02, 1e-12);
+  EXPECT_EQ(summary.density_not_converged_steps, 1u);
+  EXPECT_EQ(summary.divergence_not_converged_steps, 5u);
   ASSERT_EQ(summary.bodies.size(), 2u);
   EXPECT_EQ(summary.bodies[0].name, "tank");
   EXPECT_TRUE(summary.bodies[0].last.force.isApprox(Vec3d(20, 0, 0)));
@@ -204,6 +208,8 @@ TEST(RunSummary, JsonHasContractFields)
                           "mean_density_iterations",
                           "mean_density_error",
                           "max_density_error",
+                          "density_not_converged_steps",
+                          "divergence_not_converged_steps",
                           "bodies"})
     EXPECT_TRUE(j.contains(key)) << key;
   EXPECT_EQ(j["scene"], "scenes/dam.yaml");

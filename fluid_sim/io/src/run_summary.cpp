@@ -36,6 +36,8 @@ void RunStatistics::add(const StepReport& report, double wall_ms, const std::vec
   density_iterations_ += report.density_iterations;
   density_error_sum_ += report.density_error;
   density_error_max_ = std::max(density_error_max_, report.density_error);
+  if (!report.density_converged) ++density_not_converged_;
+  if (!report.divergence_converged) ++divergence_not_converged_;
 }
 
 void RunStatistics::fill(RunSummary& summary) const
@@ -49,6 +51,8 @@ void RunStatistics::fill(RunSummary& summary) const
   summary.mean_density_iterations = density_iterations_ * per_step;
   summary.mean_density_error = density_error_sum_ * per_step;
   summary.max_density_error = density_error_max_;
+  summary.density_not_converged_steps = density_not_converged_;
+  summary.divergence_not_converged_steps = divergence_not_converged_;
 
   const std::size_t num_bodies = body_names_.size();
   summary.bodies.assign(num_bodies, BodySummary{});
@@ -119,6 +123,8 @@ std::string toJson(const RunSummary& s)
   j["mean_density_iterations"] = s.mean_density_iterations;
   j["mean_density_error"] = s.mean_density_error;
   j["max_density_error"] = s.max_density_error;
+  j["density_not_converged_steps"] = s.density_not_converged_steps;
+  j["divergence_not_converged_steps"] = s.divergence_not_converged_steps;
   j["bodies"] = bodies;
   j["fill"] = {{"trimmed", s.fill.trimmed},
                {"overlapped", s.fill.overlapped},

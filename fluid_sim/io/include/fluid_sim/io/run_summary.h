@@ -75,6 +75,10 @@ struct RunSummary
   double mean_density_iterations = 0.0;     // per step
   double mean_density_error = 0.0;          // relative, mean over steps of StepReport::density_error
   double max_density_error = 0.0;           // relative, max over steps of StepReport::density_error
+  // Steps whose solve stopped at solver.max_iterations above its tolerance (StepReport::
+  // density_converged / divergence_converged false): the water more compressed than asked.
+  std::size_t density_not_converged_steps = 0;
+  std::size_t divergence_not_converged_steps = 0;
   std::vector<BodySummary> bodies;
   FillReport fill;  // the fill before t = 0 (JSON: fill {trimmed, relaxed, relax_steps, settled, ...})
   std::optional<SpillSummary> spill;         // only for a scene with a spill key (JSON: spill, else absent)
@@ -124,13 +128,16 @@ private:
   double density_iterations_ = 0.0;     // sum over the steps
   double density_error_sum_ = 0.0;      // relative, sum over the steps
   double density_error_max_ = 0.0;      // relative
+  std::size_t density_not_converged_ = 0;
+  std::size_t divergence_not_converged_ = 0;
 };
 
 /// The summary as pretty-printed JSON text. Keys: summary_version, scene, overrides, method,
 /// spacing (m), threads, status, reason, fluid_particles {initial, final, removed_at_start,
 /// removed_total}, boundary_particles, steps, simulated_time_s, wall_time_s, step_time_s,
 /// ms_per_step, real_time_factor, mean_divergence_iterations, mean_density_iterations,
-/// mean_density_error, max_density_error, bodies [{name, force [N], torque [N m], mean_force,
+/// mean_density_error, max_density_error, density_not_converged_steps,
+/// divergence_not_converged_steps, bodies [{name, force [N], torque [N m], mean_force,
 /// mean_torque}] (world frame, torque about the body origin), for a scene with a spill key
 /// spill {below_m, particles, volume_m3, max_particles, max_volume_m3}, and for a scene with free
 /// bodies free_bodies {NAME: {center_of_mass [m], orientation [qx, qy, qz, qw], linear_velocity
