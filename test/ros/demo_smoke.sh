@@ -44,6 +44,10 @@ normal() { # duration, extra roslaunch arguments...
   grep -q "fluid_sim: finished at t = $duration" "$work/ok.log" || fail "($*) no final statistics"
   grep -q "status ok" "$work/ok.log" || fail "($*) status not ok"
   grep -q "paddle: force" "$work/ok.log" || fail "($*) no paddle wrench"
+  # The summary's wrenches are the last message's window means (one step's jitter by tens of %).
+  grep -q "wrenches (the last message's, each the mean over ~wrench_window = 0.1 s)" "$work/ok.log" ||
+    fail "($*) the summary's wrenches are not the windowed means"
+  grep -q "not a closed surface" "$work/ok.log" && fail "($*) the demo's thin blade was warned about as an open mesh"
   grep -q "REQUIRED process" "$work/ok.log" && fail "($*) the normal end printed roslaunch's REQUIRED banner"
   return 0
 }

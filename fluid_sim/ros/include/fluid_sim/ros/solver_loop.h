@@ -214,6 +214,7 @@ private:
   ros::Time last_frame_stamp_;
   std::vector<std::pair<std::size_t, std::size_t>> body_ranges_;  // boundary particles of each body
   WrenchMeans wrench_means_;
+  std::vector<fluid_msgs::ContactWrench> last_wrenches_;  // the last valid frame's, for printSummary()
   // The scene's instruments, measured once per published frame (the probes after every step when
   // averaged over ~probe_window); null for a scene without any.
   std::unique_ptr<Measurements> measurements_;
