@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 
@@ -144,11 +145,20 @@ TEST(UrdfLoader, FixtureLinksBecomeBodiesWithTheRightShapes)
   const BoundaryConfig& relative = byName(bodies, "relative");
   EXPECT_NEAR(io::signedVolume(relative.mesh), 0.001, 1e-12);
 
-  // 'marker' has no collision geometry: skipped with a note naming the file.
-  bool noted = false;
-  for (const auto& n : notes)
-    noted = noted || (n.find("shapes.urdf: link 'marker' has no collision") != std::string::npos);
-  EXPECT_TRUE(noted);
+  // 'marker' has no collision geometry: not asked for (no list: every link with collision
+  // geometry), so not warned about (every URDF's root or tool frame was); listed, it is skipped
+  // with a note naming the file.
+  const auto markerNoted = [](const std::vector<std::string>& n) {
+    return std::any_of(n.begin(), n.end(), [](const std::string& w) {
+      return w.find("shapes.urdf: link 'marker' has no collision") != std::string::npos;
+    });
+  };
+  EXPECT_FALSE(markerNoted(notes));
+  io::UrdfBoundaryOptions listed = fixtureOptions();
+  listed.links = {"base", "marker"};
+  std::vector<std::string> listed_notes;
+  EXPECT_EQ(io::urdfBoundaries(robot, listed, &listed_notes).size(), 1u);
+  EXPECT_TRUE(markerNoted(listed_notes));
   bool cup_noted = false;
   for (const auto& n : notes)
     cup_noted = cup_noted || (n.find("link 'cup': not a closed surface") != std::string::npos);

@@ -463,14 +463,10 @@ LinkSurface linkSurface(const UrdfRobot& robot, const UrdfLink& link, double spa
 std::vector<BoundaryConfig> urdfBoundaries(const UrdfRobot& robot, const UrdfBoundaryOptions& options,
                                            std::vector<std::string>* warnings)
 {
+  // Without a list, every link with collision geometry: the others (a root or tool frame, a
+  // sensor) are not asked for and are not warned about; a listed link without it is.
   std::vector<std::string> selected = options.links;
-  if (selected.empty())
-  {
-    for (const auto& l : robot.links)
-      if (l.collisions.empty() && warnings)
-        warnings->push_back(robot.source + ": link '" + l.name + "' has no collision geometry; skipped");
-    selected = robot.collisionLinks();
-  }
+  if (selected.empty()) selected = robot.collisionLinks();
   std::vector<std::string> all_links;
   for (const auto& l : robot.links) all_links.push_back(l.name);
   std::set<std::string> seen;
