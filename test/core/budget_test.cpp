@@ -101,6 +101,15 @@ TEST(Budget, IterationAndTimeStepLimits)
   }
   s.time_step.fixed = 0.1;
   EXPECT_EQ(errorOf(s), "");
+  // An adaptive step at max_cfl trips the stability check once the speed grows within it (a
+  // water block falling freely was stopped as unstable at 0.41 s with cfl 2).
+  s = smallScene();
+  s.time_step.adaptive = true;
+  s.time_step.cfl = 2.0;
+  EXPECT_NE(errorOf(s).find("time_step.cfl: must be below stability.max_cfl (2), got 2"), std::string::npos)
+      << errorOf(s);
+  s.stability.max_cfl = 4.0;
+  EXPECT_EQ(errorOf(s), "");
   // A bad XSPH boundary coefficient is named as itself (it was reported as viscosity.coefficient).
   s = smallScene();
   s.viscosity.model = ViscosityModel::Xsph;

@@ -455,6 +455,14 @@ void validate(const SceneConfig& s)
 
   requirePositive(s.stability.max_density_error, "stability.max_density_error");
   requirePositive(s.stability.max_cfl, "stability.max_cfl");
+  // A step chosen at cfl spacings for the speed at its start ends faster (gravity alone adds
+  // g dt): at cfl >= max_cfl the stability check called healthy free-falling water unstable in
+  // its first steps after the speed had grown.
+  if (ts.adaptive && ts.cfl >= s.stability.max_cfl)
+    throw ConfigError("time_step.cfl", "must be below stability.max_cfl (" + str(s.stability.max_cfl) + "), got " +
+                                           str(ts.cfl) +
+                                           ": the speed grows within a step, and the stability check would call "
+                                           "such a step unstable");
   requireNonNegative(s.output.frame_interval, "output.frame_interval");
   requireNonNegative(s.duration, "duration");
   if (s.max_boundary_particles < 1) throw ConfigError("max_boundary_particles", "must be >= 1");
