@@ -22,10 +22,13 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
+#include <iomanip>
 #include <iostream>
 #include <memory>
 #include <optional>
 #include <regex>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -169,7 +172,7 @@ void removeOldFrames(const fs::path& frames_dir, const std::string& extension = 
 void removeOldOutputs(const fs::path& out_dir)
 {
   for (const char* name : {"stats.csv", "summary.json", "regions.csv", "probes.csv", "spill.csv", "bodies.csv",
-                           "wrenches.csv", "sinks.csv", "emitters.csv"})
+                           "wrenches.csv", "sinks.csv", "emitters.csv", "frames.csv"})
     fs::remove(out_dir / name);
   if (fs::is_directory(out_dir / "frames")) removeOldFrames(out_dir / "frames");
   if (fs::is_directory(out_dir / "surface")) removeOldFrames(out_dir / "surface", "obj");
@@ -312,6 +315,16 @@ int run(const Options& options)
   io::StatsCsvWriter csv((out_dir / "stats.csv").string());
   std::size_t frames = 0;      // written so far; the next file's number
   std::size_t frame_slot = 0;  // the next frame is due at frame_slot * frame_interval
+  // frames.csv: each frame's simulated time. Files are numbered in order; a step longer than
+  // frame_interval writes one frame for the multiples it passes, so number x interval is not
+  // always the time (a user read frame 20 as 0.02 s; it was 0.1 s).
+  std::unique_ptr<std::ofstream> frames_csv;
+  if (frame_interval > 0.0)
+  {
+    frames_csv = std::make_unique<std::ofstream>(out_dir / "frames.csv");
+    if (!*frames_csv) throw std::runtime_error("cannot write " + (out_dir / "frames.csv").string());
+    *frames_csv << "frame,t,file\n" << std::setprecision(9);
+  }
   // --surface: the free surface of each frame (core surface.h, OpenVDB), with the frame's number.
   std::size_t surfaces = 0, surfaces_refused = 0;
   double surface_ms = 0.0, surface_triangles = 0.0;  // summed over the surfaces written
@@ -338,6 +351,7 @@ int run(const Options& options)
     if (frame_interval <= 0.0 || (!force && t + 0.5 * dt < frame_slot * frame_interval)) return;
     const std::size_t index = frames++;
     io::writePly((frames_dir / io::frameFileName(index)).string(), *sim);
+    *frames_csv << index << ',' << t << ",frames/" << io::frameFileName(index) << '\n';
     if (options.surface) writeSurface(index);
     frame_slot = std::max(frame_slot, static_cast<std::size_t>(std::floor((t + 0.5 * dt) / frame_interval)) + 1);
   };
@@ -447,6 +461,7 @@ int run(const Options& options)
       if (wrenches_csv) wrenches_csv->flush();
       if (sinks_csv) sinks_csv->flush();
       if (emitters_csv) emitters_csv->flush();
+      if (frames_csv) frames_csv->flush();
       last_flush = Clock::now();
     }
   }

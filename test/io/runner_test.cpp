@@ -91,7 +91,40 @@ TEST(Runner, RunsTinySceneIntoDefaultOutputDirectory)
   for (int k = 0; k <= 4; ++k)                               // t = 0, 0.05, ..., 0.2 s
     EXPECT_TRUE(fs::exists(out / "frames" / ("00000" + std::to_string(k) + ".ply"))) << k;
   EXPECT_FALSE(fs::exists(out / "frames" / "000005.ply"));
+  // frames.csv gives each frame's time: here every 0.05 s.
+  EXPECT_EQ(test::readFile((out / "frames.csv").string()),
+            "frame,t,file\n0,0,frames/000000.ply\n1,0.05,frames/000001.ply\n2,0.1,frames/000002.ply\n3,0.15,"
+            "frames/000003.ply\n4,0.2,frames/000004.ply\n");
   EXPECT_NE(r.out.find("status   ok"), std::string::npos) << r.out;
+}
+
+TEST(Runner, FramesCsvGivesTheTimeOfFramesWrittenLessOftenThanAsked)
+{
+  // Steps of 2 ms and frames asked every 1 ms: one frame per step, numbered in order, so a
+  // frame's number times the interval is not its time (a user read frame 20 as 0.02 s; it was
+  // at 0.04 s); frames.csv says when each was written.
+  test::TempDir dir;
+  dir.write("tiny.yaml", kTinyScene);
+  const RunResult r = run(dir, "tiny.yaml --out f --threads 1 --duration 0.04 --set output.frame_interval=0.001");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  std::istringstream in(test::readFile(dir.file("f/frames.csv")));
+  std::string line;
+  std::getline(in, line);
+  EXPECT_EQ(line, "frame,t,file");
+  int rows = 0;
+  while (std::getline(in, line))
+  {
+    std::istringstream row(line);
+    std::string frame, t, file;
+    std::getline(row, frame, ',');
+    std::getline(row, t, ',');
+    std::getline(row, file, ',');
+    EXPECT_EQ(std::stoi(frame), rows);
+    EXPECT_NEAR(std::stod(t), 0.002 * rows, 1e-12) << line;
+    EXPECT_TRUE(fs::exists(dir.path() / "f" / file)) << file;
+    ++rows;
+  }
+  EXPECT_EQ(rows, 21);  // t = 0 and after each of the 20 steps
 }
 
 TEST(Runner, OverridesAndDuration)
