@@ -486,7 +486,8 @@ void SolverLoop::run()
       if (lag <= 0.0) catch_up_ = 0.0;
       if (lag > 0.5 + catch_up_)
         ROS_WARN_THROTTLE(10.0,
-                          "cannot keep up with real_time_factor %g: %.2f s behind ROS time (achieving %.2f); "
+                          "cannot keep up with real_time_factor %g: %.2f s behind ROS time (achieving %.2f simulated s "
+                          "per wall-clock s); "
                           "lower real_time_factor, coarsen the spacing, or give it more cores",
                           rtf, lag, rtf_measured_);
     }
