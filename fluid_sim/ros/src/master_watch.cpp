@@ -1,6 +1,8 @@
 #include "fluid_sim/ros/master_watch.h"
 
 #include <chrono>
+#include <map>
+#include <set>
 
 #include <ros/connection_manager.h>
 #include <ros/console.h>
@@ -45,6 +47,30 @@ std::vector<std::pair<std::string, std::string>> topicList(const std::string& me
     if (payload[k].getType() == XmlRpc::XmlRpcValue::TypeArray && payload[k].size() == 2)
       topics.emplace_back(std::string(payload[k][0]), std::string(payload[k][1]));
   return topics;
+}
+
+/// The XML-RPC URIs of the publishers each subscription of this process is linked to now, by
+/// topic: the inbound ("i") connections of the process's getBusInfo, whose destination is the
+/// publisher's slave API (what the master's publisher lists hold). Only links roscpp still holds
+/// are listed: one it has dropped (its publisher unregistered, or refused a reconnection) is not.
+std::map<std::string, std::set<std::string>> connectedPublishers()
+{
+  XmlRpc::XmlRpcValue params, payload;
+  params[0] = ros::this_node::getName();
+  std::map<std::string, std::set<std::string>> publishers;
+  if (!callSelf("getBusInfo", params, payload) || payload.getType() != XmlRpc::XmlRpcValue::TypeArray)
+    return publishers;
+  // Each connection: [id, destination, direction, transport, topic, connected, info].
+  for (int k = 0; k < payload.size(); ++k)
+  {
+    XmlRpc::XmlRpcValue& c = payload[k];
+    if (c.getType() != XmlRpc::XmlRpcValue::TypeArray || c.size() < 5) continue;
+    if (c[1].getType() != XmlRpc::XmlRpcValue::TypeString || c[2].getType() != XmlRpc::XmlRpcValue::TypeString ||
+        c[4].getType() != XmlRpc::XmlRpcValue::TypeString)
+      continue;
+    if (std::string(c[2]) == "i") publishers[std::string(c[4])].insert(std::string(c[1]));
+  }
+  return publishers;
 }
 }  // namespace
 
@@ -170,6 +196,9 @@ bool MasterWatch::registerAll()
     else
       ok = false;
   }
+  // Read before any publisherUpdate below changes the links.
+  const std::map<std::string, std::set<std::string>> connected = connectedPublishers();
+  int kept = 0;
   for (const auto& [topic, type] : topicList("getSubscriptions"))
   {
     XmlRpc::XmlRpcValue publishers;
@@ -180,11 +209,31 @@ bool MasterWatch::registerAll()
     }
     ++subscribed;
     // The publishers the new master already knows: connect to them now (those that register
-    // later are announced by the master itself).
+    // later are announced by the master itself). roscpp takes a publisherUpdate's list as the
+    // complete one and drops the links to every publisher it leaves out, so the list also holds
+    // the publishers the subscription is linked to now: nodes that do not register again with
+    // the new master (robot_state_publisher, a nodelet manager's bond) keep flowing, as they do
+    // to a rospy subscriber. A link to a publisher that has gone away is one roscpp itself keeps
+    // retrying until a master's update leaves it out; nothing here remembers it beyond this call.
+    std::set<std::string> listed;
+    if (publishers.getType() == XmlRpc::XmlRpcValue::TypeArray)
+      for (int k = 0; k < publishers.size(); ++k)
+        if (publishers[k].getType() == XmlRpc::XmlRpcValue::TypeString) listed.insert(std::string(publishers[k]));
+    XmlRpc::XmlRpcValue all;
+    all.setSize(0);
+    for (const std::string& uri : listed) all[all.size()] = uri;
+    const auto linked = connected.find(topic);
+    if (linked != connected.end())
+      for (const std::string& uri : linked->second)
+        if (!listed.count(uri))
+        {
+          all[all.size()] = uri;
+          ++kept;
+        }
     XmlRpc::XmlRpcValue update, ignored;
     update[0] = std::string("/master");
     update[1] = topic;
-    update[2] = publishers;
+    update[2] = all;
     callSelf("publisherUpdate", update, ignored);
   }
   const std::string service_api =
@@ -198,7 +247,10 @@ bool MasterWatch::registerAll()
     else
       ok = false;
   }
-  ROS_DEBUG("fluid_sim: registered %d publications, %d subscriptions, %d services", published, subscribed, served);
+  ROS_DEBUG(
+      "fluid_sim: registered %d publications, %d subscriptions (kept %d link(s) to publishers the master does not "
+      "know), %d services",
+      published, subscribed, kept, served);
   return ok;
 }
 

@@ -10,7 +10,9 @@
 // public XML-RPC API: the publications and subscriptions the process's own slave API lists
 // (getPublications, getSubscriptions), and the services the node names. Publishers already
 // registered with the new master are handed to the subscriptions (publisherUpdate), as roscpp
-// does when a subscription is created.
+// does when a subscription is created, together with the publishers each subscription is linked
+// to now (getBusInfo): roscpp drops the links a publisherUpdate leaves out, and publishers that
+// do not register again (roscpp and rospy nodes do not) would otherwise be cut off.
 
 #include <condition_variable>
 #include <functional>
