@@ -76,6 +76,21 @@ struct FluidSimNode::Impl
     std::vector<BoundaryConfig> link_bodies = readRobotLinks(nh, pnh, opt, scene);
     loop.setScene(std::move(scene), std::move(link_bodies));
     links.listen(nh);
+    // The watch runs from here on, not only once the threads start: a master restarted while the
+    // node waits for tf would otherwise leave /tf's subscription unknown to the new master, and a
+    // tf publisher started against it would never be announced to the node (which would wait on).
+    // A start-up that fails or is stopped (no tf within tf_wait_timeout, a build error, stop())
+    // stops it again.
+    master_watch.start();
+    struct StopWatchUnlessStarted
+    {
+      MasterWatch& watch;
+      bool started = false;
+      ~StopWatchUnlessStarted()
+      {
+        if (!started) watch.stop();
+      }
+    } watch_guard{master_watch};
     std::map<std::string, Pose> poses;
     ros::Time poses_stamp;
     if (!links.waitFor(loop.tfFrames(), loop.stopping(), poses, poses_stamp)) return false;
@@ -106,7 +121,7 @@ struct FluidSimNode::Impl
     services.advertise(nh, pnh, opt);
     publishers.start();
     loop.start();
-    master_watch.start();
+    watch_guard.started = true;
     return true;
   }
 
