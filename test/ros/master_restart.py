@@ -7,7 +7,9 @@ the node (tank_scene.yaml, paced) on a master of its own that is killed and star
              stepping after the restart: stats with status 'ok' and sim_time advancing. Until
              2026-12-05 the node's re-registration handed its /tf subscription only the
              publishers the new master knew, and roscpp dropped the link to this one: the node
-             stalled with 'waiting_for_tf: tank'.
+             stalled with 'waiting_for_tf: tank'. Then another /tf publisher registers with the
+             new master, whose update to the node lists only the publishers it knows: the node
+             must keep this process's tf still.
   startup    the master restarts while the node waits for tf at start-up; a tf publisher started
              afterwards against the new master gets the node going. Until 2026-12-05 the node
              registered again only once it had started, so the new master never told it of the
@@ -205,6 +207,30 @@ class Test:
             self.fail("after the master restart the node stopped stepping on the tf publisher that was already "
                       "running: %s" % self.describe_stats(since))
         print("master_restart: after the restart: %s" % self.describe_stats(registered), flush=True)
+        # Another /tf publisher registers with the new master, which tells the node of the /tf
+        # publishers it knows (not this process): the node must keep this process's tf still.
+        self.procs.append(
+            Proc(["rostopic", "pub", "-r", "10", "/tf", "tf2_msgs/TFMessage",
+                  "transforms: [{header: {frame_id: world}, child_frame_id: elsewhere, transform: {rotation: {w: 1}}}]"],
+                 os.path.join(self.out, "other_tf.log")))
+
+        def other_known():
+            try:
+                pubs = self.master_api.getSystemState()[0]
+                return any(t == "/tf" and any(x.startswith("/rostopic") for x in n) for t, n in pubs)
+            except Exception:
+                return False
+
+        if not self.wait_for("the other tf publisher to register", other_known, 20):
+            self.fail("the other tf publisher did not register with the new master")
+        # Its publisherUpdate, a check of the node's master watch (1 s) and tf2 catching up.
+        time.sleep(3.0)
+        since = time.time()
+        time.sleep(3.0 * SCALE)
+        if not self.stepping_since(since):
+            self.fail("after another tf publisher registered with the new master the node stopped stepping on the "
+                      "tf publisher that was already running: %s" % self.describe_stats(since))
+        print("master_restart: after another tf publisher registered: %s" % self.describe_stats(since), flush=True)
 
     def startup(self):
         self.start_master()

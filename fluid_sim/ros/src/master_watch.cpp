@@ -72,6 +72,45 @@ std::map<std::string, std::set<std::string>> connectedPublishers()
   }
   return publishers;
 }
+
+/// registerSubscriber / registerPublisher / registerService with the master: each takes
+/// (caller_id, name, type or service URI, caller_api). registerSubscriber's payload is the list
+/// of the topic's publishers the master knows; registering again is harmless.
+bool registerWithMaster(const char* method, const std::string& name, const std::string& arg,
+                        XmlRpc::XmlRpcValue& payload)
+{
+  XmlRpc::XmlRpcValue params, result;
+  params[0] = ros::this_node::getName();
+  params[1] = name;
+  params[2] = arg;
+  params[3] = ros::XMLRPCManager::instance()->getServerURI();
+  return ros::master::execute(method, params, result, payload, false);
+}
+
+std::set<std::string> uriSet(XmlRpc::XmlRpcValue& list)
+{
+  std::set<std::string> uris;
+  if (list.getType() == XmlRpc::XmlRpcValue::TypeArray)
+    for (int k = 0; k < list.size(); ++k)
+      if (list[k].getType() == XmlRpc::XmlRpcValue::TypeString) uris.insert(std::string(list[k]));
+  return uris;
+}
+
+/// Hands `topic`'s subscription the publishers `listed` and `extra` (roscpp connects to those it
+/// has no link to and drops the links to every other one).
+void updatePublishers(const std::string& topic, const std::set<std::string>& listed, const std::set<std::string>& extra)
+{
+  XmlRpc::XmlRpcValue all;
+  all.setSize(0);
+  for (const std::string& uri : listed) all[all.size()] = uri;
+  for (const std::string& uri : extra)
+    if (!listed.count(uri)) all[all.size()] = uri;
+  XmlRpc::XmlRpcValue update, ignored;
+  update[0] = std::string("/master");
+  update[1] = topic;
+  update[2] = all;
+  callSelf("publisherUpdate", update, ignored);
+}
 }  // namespace
 
 MasterWatch::MasterWatch(std::function<std::vector<std::string>()> services, double period)
@@ -156,6 +195,7 @@ bool MasterWatch::checkOnce()
   {
     if (!master_reachable_) ROS_INFO("fluid_sim: the ROS master at %s answers again", ros::master::getURI().c_str());
     master_reachable_ = true;
+    if (!kept_.empty()) keepLinks();
     return true;
   }
   master_reachable_ = true;
@@ -174,18 +214,6 @@ bool MasterWatch::checkOnce()
 
 bool MasterWatch::registerAll()
 {
-  const std::string me = ros::this_node::getName();
-  const std::string api = ros::XMLRPCManager::instance()->getServerURI();
-  // The master's register* calls all take (caller_id, name, type or service URI, caller_api).
-  auto registerWithMaster = [&](const char* method, const std::string& name, const std::string& arg,
-                                XmlRpc::XmlRpcValue& payload) {
-    XmlRpc::XmlRpcValue params, result;
-    params[0] = me;
-    params[1] = name;
-    params[2] = arg;
-    params[3] = api;
-    return ros::master::execute(method, params, result, payload, false);
-  };
   bool ok = true;
   int published = 0, subscribed = 0, served = 0;
   for (const auto& [topic, type] : topicList("getPublications"))
@@ -198,6 +226,8 @@ bool MasterWatch::registerAll()
   }
   // Read before any publisherUpdate below changes the links.
   const std::map<std::string, std::set<std::string>> connected = connectedPublishers();
+  kept_.clear();
+  retried_.clear();
   int kept = 0;
   for (const auto& [topic, type] : topicList("getSubscriptions"))
   {
@@ -214,27 +244,15 @@ bool MasterWatch::registerAll()
     // the publishers the subscription is linked to now: nodes that do not register again with
     // the new master (robot_state_publisher, a nodelet manager's bond) keep flowing, as they do
     // to a rospy subscriber. A link to a publisher that has gone away is one roscpp itself keeps
-    // retrying until a master's update leaves it out; nothing here remembers it beyond this call.
-    std::set<std::string> listed;
-    if (publishers.getType() == XmlRpc::XmlRpcValue::TypeArray)
-      for (int k = 0; k < publishers.size(); ++k)
-        if (publishers[k].getType() == XmlRpc::XmlRpcValue::TypeString) listed.insert(std::string(publishers[k]));
-    XmlRpc::XmlRpcValue all;
-    all.setSize(0);
-    for (const std::string& uri : listed) all[all.size()] = uri;
-    const auto linked = connected.find(topic);
-    if (linked != connected.end())
-      for (const std::string& uri : linked->second)
-        if (!listed.count(uri))
-        {
-          all[all.size()] = uri;
-          ++kept;
-        }
-    XmlRpc::XmlRpcValue update, ignored;
-    update[0] = std::string("/master");
-    update[1] = topic;
-    update[2] = all;
-    callSelf("publisherUpdate", update, ignored);
+    // retrying until a master's update leaves it out (keepLinks() then lets it go).
+    const std::set<std::string> listed = uriSet(publishers);
+    std::set<std::string> linked;
+    if (const auto c = connected.find(topic); c != connected.end())
+      for (const std::string& uri : c->second)
+        if (!listed.count(uri)) linked.insert(uri);
+    updatePublishers(topic, listed, linked);
+    kept += static_cast<int>(linked.size());
+    if (!linked.empty()) kept_[topic] = linked;
   }
   const std::string service_api =
       "rosrpc://" + ros::network::getHost() + ":" + std::to_string(ros::ConnectionManager::instance()->getTCPPort());
@@ -252,6 +270,68 @@ bool MasterWatch::registerAll()
       "know), %d services",
       published, subscribed, kept, served);
   return ok;
+}
+
+void MasterWatch::keepLinks()
+{
+  // The master's own publisherUpdates (sent when a publisher registers with it or leaves) list
+  // only the publishers it knows, so roscpp drops the links registerAll() kept. Each check puts
+  // such a dropped link back, once: a publisher that does not link again by the next check has
+  // gone away and is let go. One the master lists now is its to announce.
+  const std::map<std::string, std::set<std::string>> connected = connectedPublishers();
+  std::map<std::string, std::string> types;
+  for (const auto& [topic, type] : topicList("getSubscriptions")) types[topic] = type;
+  const std::set<std::string> none;
+  for (auto it = kept_.begin(); it != kept_.end();)
+  {
+    const std::string& topic = it->first;
+    std::set<std::string>& uris = it->second;
+    std::set<std::string>& retried = retried_[topic];
+    const auto type = types.find(topic);
+    const auto c = connected.find(topic);
+    const std::set<std::string>& linked = c != connected.end() ? c->second : none;
+    bool missing = false;
+    for (const std::string& uri : uris)
+      if (linked.count(uri))
+        retried.erase(uri);
+      else
+        missing = true;
+    XmlRpc::XmlRpcValue publishers;
+    if (type == types.end())  // no longer subscribed
+      uris.clear();
+    else if (missing && registerWithMaster("registerSubscriber", topic, type->second, publishers))
+    {
+      const std::set<std::string> listed = uriSet(publishers);
+      bool restore = false;
+      for (auto u = uris.begin(); u != uris.end();)
+      {
+        if (listed.count(*u))
+          u = uris.erase(u);  // registered with the master again
+        else if (linked.count(*u))
+          ++u;
+        else if (retried.count(*u))
+        {
+          ROS_INFO("fluid_sim: publisher %s of %s (not known to the ROS master) is gone", u->c_str(), topic.c_str());
+          retried.erase(*u);
+          u = uris.erase(u);
+        }
+        else
+        {
+          retried.insert(*u);
+          restore = true;
+          ++u;
+        }
+      }
+      if (restore) updatePublishers(topic, listed, uris);
+    }
+    if (uris.empty())
+    {
+      retried_.erase(topic);
+      it = kept_.erase(it);
+    }
+    else
+      ++it;
+  }
 }
 
 }  // namespace ros_bridge

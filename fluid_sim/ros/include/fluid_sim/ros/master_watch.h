@@ -12,11 +12,15 @@
 // registered with the new master are handed to the subscriptions (publisherUpdate), as roscpp
 // does when a subscription is created, together with the publishers each subscription is linked
 // to now (getBusInfo): roscpp drops the links a publisherUpdate leaves out, and publishers that
-// do not register again (roscpp and rospy nodes do not) would otherwise be cut off.
+// do not register again (roscpp and rospy nodes do not) would otherwise be cut off. The new
+// master's own updates (when another publisher of the topic registers) leave them out too: each
+// check puts such a link back, once (a publisher that does not link again has gone away).
 
 #include <condition_variable>
 #include <functional>
+#include <map>
 #include <mutex>
+#include <set>
 #include <string>
 #include <thread>
 #include <vector>
@@ -53,6 +57,9 @@ private:
   /// Registers publications, subscriptions and services with the master; false if any call
   /// failed (then the next check tries again).
   bool registerAll();
+  /// Puts back the links to publishers the master does not know that registerAll() kept and a
+  /// master's publisherUpdate has dropped since.
+  void keepLinks();
 
   std::function<std::vector<std::string>()> services_;
   double period_;  // s
@@ -62,6 +69,10 @@ private:
   bool stopping_ = false;         // under mutex_
   bool master_reachable_ = true;  // only the checking thread touches it
   int re_registrations_ = 0;      // under mutex_
+  // Only the checking thread touches these. By subscribed topic: the publishers linked at the
+  // last re-registration that the master did not know, and those of them put back once.
+  std::map<std::string, std::set<std::string>> kept_;
+  std::map<std::string, std::set<std::string>> retried_;
 };
 
 }  // namespace ros_bridge
