@@ -137,6 +137,10 @@ void MasterWatch::stop()
     stopping_ = true;
   }
   wake_.notify_all();
+  // stop() may come from two threads at once (the node's stop() and a start-up that ends, or a
+  // thread's failure): one joins, the other waits for that. Once stopping_ is set, start() no
+  // longer touches thread_.
+  std::lock_guard<std::mutex> join_lock(join_mutex_);
   if (thread_.joinable() && thread_.get_id() != std::this_thread::get_id()) thread_.join();
 }
 

@@ -41,7 +41,7 @@ public:
 
   /// Starts the watch thread (once).
   void start();
-  /// Stops and joins it; idempotent.
+  /// Stops and joins it; idempotent, and safe to call from several threads at once.
   void stop();
 
   /// One check: is the master reachable, and does it know this node? If it is reachable and does
@@ -65,6 +65,7 @@ private:
   double period_;  // s
   std::thread thread_;
   mutable std::mutex mutex_;
+  std::mutex join_mutex_;  // one stop() at a time joins thread_
   std::condition_variable wake_;
   bool stopping_ = false;         // under mutex_
   bool master_reachable_ = true;  // only the checking thread touches it
