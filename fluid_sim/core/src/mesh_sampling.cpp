@@ -407,7 +407,14 @@ void sampleLattice(const TriangleMesh& mesh, const std::vector<std::uint32_t>& p
 {
   const double* lo = lattice.lo;
   const double* step = lattice.step;
-  const double eps = 1e-9 * s;  // m
+  // Nodes on a patch's border count within kNodeSlack (of a lattice step, and of s for the edge
+  // test): a mesh file's float32 corners, scaled, put border nodes a few 1e-9 m outside the patch
+  // (an L-shaped tank's STL at scale 1.6: a lattice step of 0.0200000008 m). Left out there, the
+  // cells along the border counted as incomplete and the fill put a sample at each one's centre:
+  // 66 extra particles along the inner floor edges, whose volumes (Eq. A3) fell to 0.56-0.66 s^3,
+  // and single-term mirroring's weakened floor let most of the water through it.
+  constexpr double kNodeSlack = 1e-6;
+  const double eps = kNodeSlack * s;  // m
   for (std::uint32_t t : patch)
   {
     double q[3][2];  // m, the corners in lattice coordinates (u, v)
@@ -419,10 +426,10 @@ void sampleLattice(const TriangleMesh& mesh, const std::vector<std::uint32_t>& p
     }
     const double area2 = (q[1][0] - q[0][0]) * (q[2][1] - q[0][1]) - (q[2][0] - q[0][0]) * (q[1][1] - q[0][1]);
     // The nodes of the triangle's bounding rectangle.
-    const int i0 = int(std::ceil((std::min({q[0][0], q[1][0], q[2][0]}) - lo[0]) / step[0] - 1e-9));
-    const int i1 = int(std::floor((std::max({q[0][0], q[1][0], q[2][0]}) - lo[0]) / step[0] + 1e-9));
-    const int j0 = int(std::ceil((std::min({q[0][1], q[1][1], q[2][1]}) - lo[1]) / step[1] - 1e-9));
-    const int j1 = int(std::floor((std::max({q[0][1], q[1][1], q[2][1]}) - lo[1]) / step[1] + 1e-9));
+    const int i0 = int(std::ceil((std::min({q[0][0], q[1][0], q[2][0]}) - lo[0]) / step[0] - kNodeSlack));
+    const int i1 = int(std::floor((std::max({q[0][0], q[1][0], q[2][0]}) - lo[0]) / step[0] + kNodeSlack));
+    const int j0 = int(std::ceil((std::min({q[0][1], q[1][1], q[2][1]}) - lo[1]) / step[1] - kNodeSlack));
+    const int j1 = int(std::floor((std::max({q[0][1], q[1][1], q[2][1]}) - lo[1]) / step[1] + kNodeSlack));
     const Vec3d& a = mesh.vertices[mesh.triangles[t][0]];
     for (int j = j0; j <= j1; ++j)
       for (int i = i0; i <= i1; ++i)
