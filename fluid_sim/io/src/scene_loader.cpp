@@ -686,38 +686,28 @@ std::vector<BoundaryConfig> readUrdf(const Entry& e, const BoundaryConfig& commo
   const std::string urdf_name = written == path ? written : written + " (= " + path + ")";
 
   UrdfBoundaryOptions options;
-  if (auto links = r.get("links"))
-    forEachItem(*links, [&](const Entry& item) {
+  // A list of the URDF's link names, each once: `links`, and `thin_links` (links whose surface is
+  // a thin shell meant as one: offset none for them alone; whether each has a body in this entry
+  // is known once the bodies are built, below).
+  const auto readLinkNames = [&](const Entry& list, std::vector<std::string>& names, std::vector<Entry>* items) {
+    forEachItem(list, [&](const Entry& item) {
       const std::string name = readScalar<std::string>(item);
       if (!robot.link(name))
       {
-        std::vector<std::string> names;
-        for (const auto& l : robot.links) names.push_back(l.name);
+        std::vector<std::string> all;
+        for (const auto& l : robot.links) all.push_back(l.name);
         throw ConfigError(item.key, "unknown link '" + name + "' in " + urdf_name +
-                                        " (links: " + joinNames(names, " or ") + ")" + lineOf(item.node));
+                                        " (links: " + joinNames(all, " or ") + ")" + lineOf(item.node));
       }
-      if (std::find(options.links.begin(), options.links.end(), name) != options.links.end())
+      if (std::find(names.begin(), names.end(), name) != names.end())
         throw ConfigError(item.key, "link '" + name + "' is listed twice" + lineOf(item.node));
-      options.links.push_back(name);
+      names.push_back(name);
+      if (items) items->push_back(item);
     });
-  // thin_links: links whose surface is a thin shell meant as one (offset none for them alone);
-  // whether each has a body in this entry is known once the bodies are built (below).
+  };
+  if (auto links = r.get("links")) readLinkNames(*links, options.links, nullptr);
   std::vector<Entry> thin_items;
-  if (auto thin = r.get("thin_links"))
-    forEachItem(*thin, [&](const Entry& item) {
-      const std::string name = readScalar<std::string>(item);
-      if (!robot.link(name))
-      {
-        std::vector<std::string> names;
-        for (const auto& l : robot.links) names.push_back(l.name);
-        throw ConfigError(item.key, "unknown link '" + name + "' in " + urdf_name +
-                                        " (links: " + joinNames(names, " or ") + ")" + lineOf(item.node));
-      }
-      if (std::find(options.thin_links.begin(), options.thin_links.end(), name) != options.thin_links.end())
-        throw ConfigError(item.key, "link '" + name + "' is listed twice" + lineOf(item.node));
-      options.thin_links.push_back(name);
-      thin_items.push_back(item);
-    });
+  if (auto thin = r.get("thin_links")) readLinkNames(*thin, options.thin_links, &thin_items);
   if (auto positions = r.get("joint_positions"))
   {
     if (!positions->node.IsMap() && !positions->node.IsNull()) typeError(*positions, "a map {joint: position}");
@@ -796,32 +786,23 @@ std::vector<BoundaryConfig> readUrdf(const Entry& e, const BoundaryConfig& commo
     if (std::find(options.thin_links.begin(), options.thin_links.end(), b.name) == options.thin_links.end())
       b.mesh_offset = common.mesh_offset;  // a thin link's is None (urdfBoundaries)
   }
-  for (const Entry& item : thin_items)
-  {
-    const std::string name = readScalar<std::string>(item);
-    if (std::none_of(bodies.begin(), bodies.end(), [&](const BoundaryConfig& b) { return b.name == name; }))
-    {
-      std::vector<std::string> names;
-      for (const auto& b : bodies) names.push_back(b.name);
-      throw ConfigError(item.key, "link '" + name + "' in " + urdf_name +
-                                      " is not one of this entry's bodies (not in links, or without collision "
-                                      "geometry; bodies: " +
-                                      joinNames(names, " or ") + ")" + lineOf(item.node));
-    }
-  }
+  // The body of a link that thin_links or free_links names (`at`: its key), which must be one of
+  // this entry's.
+  const auto bodyOf = [&](const std::string& name, const Entry& at) {
+    const auto body =
+        std::find_if(bodies.begin(), bodies.end(), [&](const BoundaryConfig& b) { return b.name == name; });
+    if (body != bodies.end()) return body;
+    std::vector<std::string> names;
+    for (const auto& b : bodies) names.push_back(b.name);
+    throw ConfigError(at.key, "link '" + name + "' in " + urdf_name +
+                                  " is not one of this entry's bodies (not in links, or without collision geometry; "
+                                  "bodies: " +
+                                  joinNames(names, " or ") + ")" + lineOf(at.node));
+  };
+  for (const Entry& item : thin_items) bodyOf(readScalar<std::string>(item), item);
   for (const FreeLink& link : free_links)
   {
-    const auto body =
-        std::find_if(bodies.begin(), bodies.end(), [&](const BoundaryConfig& b) { return b.name == link.name; });
-    if (body == bodies.end())
-    {
-      std::vector<std::string> names;
-      for (const auto& b : bodies) names.push_back(b.name);
-      throw ConfigError(link.at.key, "link '" + link.name + "' in " + urdf_name +
-                                         " is not one of this entry's bodies (not in links, or without collision "
-                                         "geometry; bodies: " +
-                                         joinNames(names, " or ") + ")" + lineOf(link.at.node));
-    }
+    const auto body = bodyOf(link.name, link.at);
     body->dynamic = link.dynamic;
     body->dynamic_key = link.at.key;
   }
