@@ -966,6 +966,11 @@ TEST(SceneLoader, EmittersAreReadWithTheirNozzleDirectionAndBudget)
               "emitters[0].direction", "non-zero");
   expectError(kBase + "emitters:\n  - {name: t, circle: {radius: 0.01}, speed: 1, flow_rate: 1}\n", "emitters[0]",
               "both speed and flow_rate");
+  // A 0 given is out of range, as a negative value is (it read as if none were given).
+  expectError(kBase + "emitters:\n  - {name: t, circle: {radius: 0.01}, flow_rate: 0}\n", "emitters[0].flow_rate",
+              "must be > 0, got 0");
+  expectError(kBase + "emitters:\n  - {name: t, circle: {radius: 0.01}, speed: 0.0}\n", "emitters[0].speed",
+              "must be > 0, got 0");
   expectError(kBase + "emitters:\n  - {name: t, circle: {radius: 0.01}, sped: 1}\n", "emitters[0].sped", "unknown key");
   expectError(kBase + "emitters:\n  - {name: t, circle: {radius: 0.01}, speed: 1, max_particles: 0.5}\n",
               "emitters[0].max_particles", "whole number");

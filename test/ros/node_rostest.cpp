@@ -1333,6 +1333,12 @@ TEST(Errors, BadSceneKeyIsNamed)
   expectStartupError("bad_key", {"solver.density_eror"});
 }
 
+TEST(Errors, ABuildErrorNamesTheScenesSource)
+{
+  expectStartupError("bad_region",
+                     {"scene: private parameters of /bad_region: regions[0].body: no boundary body named 'mug'"});
+}
+
 TEST(Errors, OutOfRangeParameterIsNamed)
 {
   expectStartupError("huge_tf_delay", {"/huge_tf_delay/tf_delay = 1e+10", "out of range"});

@@ -601,8 +601,16 @@ EmitterConfig readEmitter(const Entry& e)
                              pose = r.get("pose"), direction = r.get("direction"), body = r.get("body"),
                              max_particles = r.get("max_particles"), frame = r.get("frame");
   EmitterConfig em;
-  r.read("speed", em.speed);
-  r.read("flow_rate", em.flow_rate);
+  // 0 means "not given" in EmitterConfig (the other follows from the nozzle); a 0 written in the
+  // scene is a value out of range, named as a negative one is (it read "needs a speed or a
+  // flow_rate").
+  for (const char* key : {"speed", "flow_rate"})
+    if (auto v = r.get(key))
+    {
+      double& out = std::string(key) == "speed" ? em.speed : em.flow_rate;
+      readInto(*v, out);
+      if (out == 0.0) throw ConfigError(v->key, "must be > 0, got 0" + lineOf(v->node));
+    }
   r.read("start", em.start);
   r.read("duration", em.duration);
   r.finish();

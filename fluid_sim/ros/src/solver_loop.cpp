@@ -96,7 +96,8 @@ void SolverLoop::build(const std::map<std::string, Pose>& poses, const ros::Time
   }
   catch (const ConfigError& e)
   {
-    throw StartupError(std::string("scene: ") + e.what());
+    // Named as readScene() names the loader's errors: the scene's source, then the key.
+    throw StartupError("scene: " + scene.source + ": " + withoutYamlLines(e.what()));
   }
   const FillReport& fill = sim_->fillReport();
   if (fill.trimmed > 0 || fill.relaxed)
