@@ -101,6 +101,22 @@ TEST(BulletContacts, BoxRestsOnTheFloorAtItsExactHeight)
   EXPECT_GT(d.contacts.contacts(), 0u);
 }
 
+TEST(BulletContacts, ABodyBesideAContainerInATankLandsOnTheFloor)
+{
+  // A closed cup (a box container) standing in a tank, a cube dropped 5 cm beside it. The cup's
+  // walls were 10 cm slabs reaching 10 cm beyond it: the cube rested at z = 0.22, in mid-air.
+  BoundaryConfig cup = box("cup", Vec3d(0.1, 0.1, 0.1), Vec3d(0.25, 0.15, 0.05));
+  cup.inside = true;
+  const BoundaryConfig cube = box("cube", Vec3d(0.04, 0.04, 0.04), Vec3d(0.35, 0.15, 0.3), 1000.0);
+  Dry d({tankBox(Vec3d(0.5, 0.3, 0.4)), cup, cube});
+  while (d.t < 0.6 - 1e-9) d.step();
+  const Vec3d c = d.bodies[2].centerOfMass();
+  std::printf("cube beside the cup at (%.4f, %.4f, %.4f)\n", c.x(), c.y(), c.z());
+  // On the floor, at most a wall's thickness (a spacing) off the cup's outside (x 0.3 + 0.02).
+  EXPECT_NEAR(c.z(), 0.02, 0.005 * kS);
+  EXPECT_GT(c.x(), 0.3 + kS);
+}
+
 TEST(BulletContacts, BallAndCylinderRestAtTheirExactHeights)
 {
   BoundaryConfig ball;

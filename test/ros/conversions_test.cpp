@@ -1224,6 +1224,9 @@ TEST(FreeLinks, ANamedLinkBecomesAFreeBodyNotPosedFromTf)
   EXPECT_TRUE(links[1].dynamic.enabled);
   EXPECT_DOUBLE_EQ(links[1].dynamic.density, 600.0);
   EXPECT_DOUBLE_EQ(links[1].pose.translation.z(), 0.1);  // starts at its URDF pose
+  // What the bodies' build checks name (they named boundaries[1].dynamic, which no one wrote).
+  EXPECT_EQ(links[1].dynamic_key, "/fluid_sim/fluid_sim/free_links/pusher");
+  EXPECT_EQ(dynamicKey(links[1], 1), "/fluid_sim/fluid_sim/free_links/pusher");
 }
 
 TEST(FreeLinks, AnUnknownLinkIsRefusedWithTheParameterTheLinkAndTheValue)

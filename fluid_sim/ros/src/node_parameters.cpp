@@ -409,6 +409,9 @@ void applyFreeLinks(const std::vector<FreeLinkOption>& free, std::vector<Boundar
     if (body->inside) bad("is a container (~container_links): a container cannot be a free body");
     body->externally_posed = false;
     body->dynamic = f.dynamic;
+    // Checks made when the bodies are built (a centre of mass beyond the body, a body too light)
+    // name this key; without it they named boundaries[i].dynamic, which the user never wrote.
+    body->dynamic_key = ns + "/free_links/" + f.link;
     // The same checks as a scene body's dynamic key (core validate()), on the link alone.
     SceneConfig check = scene;
     check.boundaries = {*body};
