@@ -590,6 +590,12 @@ boundaries:
             std::string::npos)
       << s.warnings[0];
   EXPECT_TRUE(parseScene(scene + "    offset: none\n", "scene.yaml").warnings.empty());
+  // inside: true on it did nothing, silently: now said.
+  const SceneConfig held = parseScene(scene + "    offset: none\n    inside: true\n", "scene.yaml");
+  ASSERT_EQ(held.warnings.size(), 1u);
+  EXPECT_NE(held.warnings[0].find("boundaries[1] 'paddle': inside: true on an open mesh does nothing"),
+            std::string::npos)
+      << held.warnings[0];
 }
 
 }  // namespace

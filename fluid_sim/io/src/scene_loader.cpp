@@ -959,6 +959,13 @@ SceneConfig readScene(const YAML::Node& root, LoadContext& ctx)
       for (auto& b : readBoundary(item, s.boundaries.size(), ctx))
       {
         b.key = item.key;  // messages name the scene's entry, not the body's index among a URDF's links
+        // An open surface has no inside: the fill keeps no water for it and the flag changed
+        // nothing, silently (a round open cup marked inside: true ran as without it).
+        if (b.type == ShapeType::Mesh && b.inside && !b.mesh_closed)
+          s.warnings.push_back(item.key + " '" + b.name +
+                               "': inside: true on an open mesh does nothing (an open surface has no inside to keep "
+                               "water in; its walls hold water as any thin shell's do): close the mesh to make it "
+                               "a container");
         s.boundaries.push_back(std::move(b));
       }
     });

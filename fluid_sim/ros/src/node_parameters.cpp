@@ -648,6 +648,12 @@ std::vector<BoundaryConfig> readRobotLinks(const ros::NodeHandle& nh, const ros:
     {
       b.externally_posed = true;
       b.inside = std::find(opt.container_links.begin(), opt.container_links.end(), b.name) != opt.container_links.end();
+      if (b.inside && b.type == ShapeType::Mesh && !b.mesh_closed)
+        ROS_WARN(
+            "parameter %s/container_links: link '%s' is an open mesh, which has no inside to keep water in: "
+            "listing it does nothing (its walls hold water as any thin shell's do); close its mesh to make it "
+            "a container",
+            pnh.getNamespace().c_str(), b.name.c_str());
       for (const BoundaryConfig& s : scene.boundaries)
         if (s.name == b.name)
           throw StartupError("link '" + b.name + "' has the same name as a body of the scene; rename the scene body");
