@@ -88,7 +88,7 @@ def free_port():
 class Proc:
     """A child process in its own process group, its output appended to a log file."""
 
-    def __init__(self, name, args, log_path, env):
+    def __init__(self, name, args, log_path, env=None):
         self.name = name
         self.log = open(log_path, "ab")
         self.p = subprocess.Popen(args, stdout=self.log, stderr=subprocess.STDOUT, env=env, start_new_session=True)
@@ -108,6 +108,7 @@ class Proc:
                 os.killpg(self.p.pid, signal.SIGKILL)
                 self.p.wait()
         self.log.close()
+        return self.p.returncode
 
 
 class Soak:

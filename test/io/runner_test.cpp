@@ -44,6 +44,13 @@ boundaries:
 output: {frame_interval: 0.05}
 )yaml";
 
+/// kTinyScene turned into still water 0.15 m deep in its tank alone, at 4 ms steps, no frames:
+/// runner arguments (before --out and --duration).
+const std::string kStillWater =
+    "tiny.yaml --threads 1 --set time_step.fixed=0.004 --set output.frame_interval=0 "
+    "--set 'fluid[0].box={min: [0, 0, 0], max: [0.4, 0.4, 0.15]}' --set 'boundaries=[{name: tank, box: {min: [0, 0, "
+    "0], max: [0.4, 0.4, 0.5]}, inside: true}]'";
+
 using test::RunResult;
 
 RunResult run(const test::TempDir& dir, const std::string& args)
@@ -160,13 +167,9 @@ TEST(Runner, TheLastTwoStepsShareARemainderSoNoStepIsTiny)
   // -312,685 N for 157 N of water (another scene), with status ok.
   test::TempDir dir;
   dir.write("tiny.yaml", kTinyScene);
-  const std::string still =
-      "tiny.yaml --threads 1 --set time_step.fixed=0.004 --set output.frame_interval=0 "
-      "--set 'fluid[0].box={min: [0, 0, 0], max: [0.4, 0.4, 0.15]}' --set 'boundaries=[{name: tank, box: {min: [0, 0, "
-      "0], max: [0.4, 0.4, 0.5]}, inside: true}]'";
-  const RunResult whole = run(dir, still + " --out whole --duration 0.2");
+  const RunResult whole = run(dir, kStillWater + " --out whole --duration 0.2");
   ASSERT_EQ(whole.exit_code, 0) << whole.err;
-  const RunResult odd = run(dir, still + " --out odd --duration 0.20002");
+  const RunResult odd = run(dir, kStillWater + " --out odd --duration 0.20002");
   ASSERT_EQ(odd.exit_code, 0) << odd.err;
   const nlohmann::json a = readJson(dir.file("whole/summary.json"));
   const nlohmann::json b = readJson(dir.file("odd/summary.json"));
@@ -198,10 +201,7 @@ TEST(Runner, SolvesStoppedAtMaxIterationsAreCountedAndSaid)
   // probe, with status ok and nothing said (the node's stats say not_converged per step).
   test::TempDir dir;
   dir.write("tiny.yaml", kTinyScene);
-  const std::string still =
-      "tiny.yaml --threads 1 --duration 0.2 --set time_step.fixed=0.004 --set output.frame_interval=0 "
-      "--set 'fluid[0].box={min: [0, 0, 0], max: [0.4, 0.4, 0.15]}' --set 'boundaries=[{name: tank, box: {min: [0, 0, "
-      "0], max: [0.4, 0.4, 0.5]}, inside: true}]'";
+  const std::string still = kStillWater + " --duration 0.2";
   const RunResult r = run(dir, still +
                                    " --out nc --set solver.max_iterations=1 --set solver.min_iterations=0 "
                                    "--set solver.min_divergence_iterations=0");

@@ -614,14 +614,12 @@ emitters:
   }
 }
 
-TEST(LinkPoses, ANodeFarBehindPosesItsLinksFromItsOwnRecordOfTf)
+namespace
 {
-  // A simulation that falls behind ROS time by more than tf keeps (60 s) would find its links'
-  // past poses gone (before: posed 30 s back at most, drawn along with ROS time, so the water
-  // saw them move faster than they do and blew up). The node records the links' poses itself
-  // while it is behind (pose_history) and poses them from that record.
-  ros::Time::init();
-  const SceneConfig scene = io::parseScene(R"yaml(
+/// A small tank of water and one link, `pusher`, posed from outside (tf), for LinkPoses.
+SceneConfig pusherLinkScene()
+{
+  return io::parseScene(R"yaml(
 spacing: 0.05
 domain: {min: [-1, -1, -1], max: [1, 1, 1]}
 fluid:
@@ -631,7 +629,18 @@ boundaries:
     box: {min: [-0.05, -0.05, -0.05], max: [0.05, 0.05, 0.05]}
     external: true
 )yaml",
-                                           "scene.yaml");
+                        "scene.yaml");
+}
+}  // namespace
+
+TEST(LinkPoses, ANodeFarBehindPosesItsLinksFromItsOwnRecordOfTf)
+{
+  // A simulation that falls behind ROS time by more than tf keeps (60 s) would find its links'
+  // past poses gone (before: posed 30 s back at most, drawn along with ROS time, so the water
+  // saw them move faster than they do and blew up). The node records the links' poses itself
+  // while it is behind (pose_history) and poses them from that record.
+  ros::Time::init();
+  const SceneConfig scene = pusherLinkScene();
   // The link's motion: x and the turn about z, smooth, published on tf at 20 Hz from t0.
   const double t0 = 1000.0;
   auto xAt = [&](double t) { return 0.1 + 0.05 * std::sin(t - t0); };
@@ -721,17 +730,7 @@ TEST(LinkPoses, PosesHoldAtAnyInstantWithoutLinksOrWithStaticOnes)
   // The solver loop warned "further than the links' poses are kept" and drew its instant along
   // with ROS time in a scene without links; what it poses then holds at any instant.
   ros::Time::init();
-  const SceneConfig scene = io::parseScene(R"yaml(
-spacing: 0.05
-domain: {min: [-1, -1, -1], max: [1, 1, 1]}
-fluid:
-  - box: {min: [0.5, 0.5, 0.5], max: [0.7, 0.7, 0.7]}
-boundaries:
-  - name: pusher
-    box: {min: [-0.05, -0.05, -0.05], max: [0.05, 0.05, 0.05]}
-    external: true
-)yaml",
-                                           "scene.yaml");
+  const SceneConfig scene = pusherLinkScene();
   NodeOptions opt;
   LinkPoses none(opt);
   EXPECT_TRUE(none.posesHoldAtAnyInstant());

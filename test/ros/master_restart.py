@@ -19,9 +19,6 @@ Exit code 0 if the scenario passed, 1 with a message if not.
 """
 import argparse
 import os
-import signal
-import socket
-import subprocess
 import sys
 import threading
 import time
@@ -33,48 +30,14 @@ from geometry_msgs.msg import TransformStamped
 from tf2_msgs.msg import TFMessage
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+# The soak's process helpers: the built node, a free port, a child in its own process group.
+sys.path.insert(0, os.path.join(ROOT, "scripts"))
+from soak import Proc, free_port, libexec  # noqa: E402
+
 NODE = "/fluid_sim/fluid_sim"
 STATS = "/fluid_sim/stats"
 # Waits (s), times FLUID_SIM_TEST_TIME_SCALE (an instrumented node runs 10-30 times slower).
 SCALE = int(os.environ.get("FLUID_SIM_TEST_TIME_SCALE", "1") or 1)
-
-
-def libexec(exe):
-    dirs = subprocess.run(["catkin_find", "--libexec", "fluid_sim"], stdout=subprocess.PIPE,
-                          universal_newlines=True).stdout.split()
-    for d in dirs:
-        if os.access(os.path.join(d, exe), os.X_OK):
-            return os.path.join(d, exe)
-    raise RuntimeError("%s not found (is build/devel/setup.bash sourced?)" % exe)
-
-
-def free_port():
-    with socket.socket() as s:
-        s.bind(("", 0))
-        return s.getsockname()[1]
-
-
-class Proc:
-    """A child process in its own process group, its output in a log file."""
-
-    def __init__(self, args, log_path):
-        self.log_path = log_path
-        self.log = open(log_path, "ab")
-        self.p = subprocess.Popen(args, stdout=self.log, stderr=subprocess.STDOUT, start_new_session=True)
-
-    def stop(self):
-        if self.p.poll() is None:
-            try:
-                os.killpg(self.p.pid, signal.SIGINT)
-            except ProcessLookupError:
-                pass
-            try:
-                self.p.wait(15)
-            except subprocess.TimeoutExpired:
-                os.killpg(self.p.pid, signal.SIGKILL)
-                self.p.wait()
-        self.log.close()
-        return self.p.returncode
 
 
 class Test:
@@ -98,7 +61,7 @@ class Test:
         sys.exit(1)
 
     def start_master(self):
-        self.master = Proc(["roscore", "-p", os.environ["ROS_MASTER_URI"].rsplit(":", 1)[1]],
+        self.master = Proc("roscore", ["roscore", "-p", os.environ["ROS_MASTER_URI"].rsplit(":", 1)[1]],
                            os.path.join(self.out, "master.log"))
         deadline = time.time() + 60 * SCALE
         while time.time() < deadline:
@@ -119,10 +82,20 @@ class Test:
         print("master_restart: master restarted", flush=True)
 
     def start_node(self):
-        self.node = Proc([libexec("fluid_sim_node"), "__name:=fluid_sim", "__ns:=/fluid_sim",
+        self.node = Proc("node", [libexec("fluid_sim_node"), "__name:=fluid_sim", "__ns:=/fluid_sim",
                           "_scene_file:=" + os.path.join(ROOT, "test", "ros", "tank_scene.yaml"),
                           "_real_time_factor:=0.5"], os.path.join(self.out, "node.log"))
         self.procs.append(self.node)
+
+    def expect_stepping_after(self, settle, failure):
+        """Waits `settle` s, then 3 s (scaled) in which the node must go on stepping; fails with
+        `failure` and what the stats said if it does not. Returns when the 3 s began."""
+        time.sleep(settle)
+        since = time.time()
+        time.sleep(3.0 * SCALE)
+        if not self.stepping_since(since):
+            self.fail("%s: %s" % (failure, self.describe_stats(since)))
+        return since
 
     def node_known(self):
         try:
@@ -200,17 +173,13 @@ class Test:
         # A second for the re-registration's publisherUpdate to take effect, then three more in
         # which the node must go on stepping on the old publisher's tf (a node without it stalls
         # and says 'waiting_for_tf: tank' after a second).
-        time.sleep(1.0)
-        since = time.time()
-        time.sleep(3.0 * SCALE)
-        if not self.stepping_since(since):
-            self.fail("after the master restart the node stopped stepping on the tf publisher that was already "
-                      "running: %s" % self.describe_stats(since))
+        self.expect_stepping_after(1.0, "after the master restart the node stopped stepping on the tf publisher "
+                                        "that was already running")
         print("master_restart: after the restart: %s" % self.describe_stats(registered), flush=True)
         # Another /tf publisher registers with the new master, which tells the node of the /tf
         # publishers it knows (not this process): the node must keep this process's tf still.
         self.procs.append(
-            Proc(["rostopic", "pub", "-r", "10", "/tf", "tf2_msgs/TFMessage",
+            Proc("other_tf", ["rostopic", "pub", "-r", "10", "/tf", "tf2_msgs/TFMessage",
                   "transforms: [{header: {frame_id: world}, child_frame_id: elsewhere, transform: {rotation: {w: 1}}}]"],
                  os.path.join(self.out, "other_tf.log")))
 
@@ -224,12 +193,8 @@ class Test:
         if not self.wait_for("the other tf publisher to register", other_known, 20):
             self.fail("the other tf publisher did not register with the new master")
         # Its publisherUpdate, a check of the node's master watch (1 s) and tf2 catching up.
-        time.sleep(3.0)
-        since = time.time()
-        time.sleep(3.0 * SCALE)
-        if not self.stepping_since(since):
-            self.fail("after another tf publisher registered with the new master the node stopped stepping on the "
-                      "tf publisher that was already running: %s" % self.describe_stats(since))
+        since = self.expect_stepping_after(3.0, "after another tf publisher registered with the new master the node "
+                                                "stopped stepping on the tf publisher that was already running")
         print("master_restart: after another tf publisher registered: %s" % self.describe_stats(since), flush=True)
 
     def startup(self):
@@ -253,7 +218,7 @@ class Test:
         print("master_restart: the node %s registered with the new master" % ("has" if known else "has NOT"),
               flush=True)
         self.procs.append(
-            Proc(["rosrun", "tf2_ros", "static_transform_publisher", "0.15", "0.075", "0.15", "0", "0", "0", "world",
+            Proc("tf", ["rosrun", "tf2_ros", "static_transform_publisher", "0.15", "0.075", "0.15", "0", "0", "0", "world",
                   "tank", "__name:=world_to_tank"], os.path.join(self.out, "tf.log")))
         # Registered with the new master (this process's first registration with it), so it hears
         # of the node's stats when the node advertises them.

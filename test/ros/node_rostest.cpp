@@ -636,12 +636,16 @@ TEST(Pusher, MovingALinkThroughTfMovesItsParticlesAndItsWrench)
   double now = t_start;
   const ros::WallTime wall_start = ros::WallTime::now();
   auto wallLeft = [&]() { return (ros::WallTime::now() - wall_start).toSec() < waitSeconds(200.0); };
-  auto advance = [&](double z) {
+  // One tick: the clock on by `tick`, the pusher at height z on tf at that instant.
+  auto tickClock = [&](double z) {
     now += tick;
     tf.sendTransform(transform("pusher", 0.2, 0.1, z, ros::Time(now)));
     rosgraph_msgs::Clock c;
     c.clock = ros::Time(now);
     clock_pub.publish(c);
+  };
+  auto advance = [&](double z) {
+    tickClock(z);
     bool started;
     {
       std::lock_guard<std::mutex> lock(m);
@@ -766,13 +770,9 @@ TEST(Pusher, MovingALinkThroughTfMovesItsParticlesAndItsWrench)
   pause.request.data = true;
   ASSERT_TRUE(ros::service::call("/fluid_sim/pause", pause));
   ASSERT_TRUE(pause.response.success) << pause.response.message;
-  const double z_new = 0.33;  // m, above the water, away from z_high
-  auto tickPaused = [&](double z) {
-    now += tick;
-    tf.sendTransform(transform("pusher", 0.2, 0.1, z, ros::Time(now)));
-    rosgraph_msgs::Clock c;
-    c.clock = ros::Time(now);
-    clock_pub.publish(c);
+  const double z_new = 0.33;         // m, above the water, away from z_high
+  auto tickPaused = [&](double z) {  // at wall speed: a paused node publishes no frames to wait for
+    tickClock(z);
     ros::WallDuration(tick).sleep();
   };
   for (int k = 0; k < 100; ++k) tickPaused(z_low + (z_new - z_low) * (k + 1) / 100.0);  // up in 0.5 s
