@@ -37,8 +37,12 @@ STATS_TIMING = {"wall_ms", "ms_neighbors", "ms_divergence", "ms_density"}
 # left out so that records before and after their addition compare.
 STATS_DIAGNOSTIC = {"coefficient_min", "coefficient_max", "coefficient_abs_sum_max", "coefficient_abs_sum_mean",
                     "feedback_ratio_min", "feedback_ratio_max", "density_residual_first", "density_residual_peak",
-                    "density_residual_last"}
+                    "density_residual_last", "wall_guarded", "wall_guard_max_shift"}
 SUMMARY_TIMING = {"wall_time_s", "step_time_s", "ms_per_step", "real_time_factor"}
+# Summary keys added after the first records, left out for the same reason (where they report
+# something, the stats and frames differ as well).
+SUMMARY_DIAGNOSTIC = {"density_not_converged_steps", "divergence_not_converged_steps", "wall_guarded_steps",
+                      "wall_guarded_particles", "wall_guard_max_shift_m"}
 
 
 def sha(data):
@@ -59,7 +63,7 @@ def stats_hash(path):
 def summary_hash(path):
     with open(path) as f:
         summary = json.load(f)
-    for key in SUMMARY_TIMING:
+    for key in SUMMARY_TIMING | SUMMARY_DIAGNOSTIC:
         summary.pop(key, None)
     summary.pop("scene", None)  # the path the scene was given by, not a result
     return sha(json.dumps(summary, sort_keys=True).encode()), summary.get("status", "?")

@@ -96,9 +96,13 @@ TEST(StatsCsvWriter, HeaderAndRows)
     r.kinetic_energy = 0.25;
     r.boundary_pressure_work = -0.125;
     r.density_residual_max = {0.5f, 0.75f, 0.125f};
+    r.wall_guarded = 3;
+    r.wall_guard_max_shift = 0.0025;
     csv.write(1, r, 2.5);
     r.time = 0.002;
     r.density_residual_max.clear();
+    r.wall_guarded = 0;
+    r.wall_guard_max_shift = 0.0;
     csv.write(2, r, 2.0);
     csv.flush();
   }
@@ -119,8 +123,11 @@ TEST(StatsCsvWriter, HeaderAndRows)
   EXPECT_NE(header.find(",kinetic_energy,boundary_pressure_work"), std::string::npos) << header;
   EXPECT_NE(row1.find(",0.25,-0.125"), std::string::npos) << row1;
   EXPECT_NE(header.find(",density_residual_first,density_residual_peak,density_residual_last"), std::string::npos);
-  EXPECT_EQ(row1.substr(row1.size() - 15), ",0.5,0.75,0.125") << row1;  // first, peak, last
-  EXPECT_EQ(row2.substr(row2.size() - 2), ",,") << row2;                // no density solve
+  EXPECT_NE(row1.find(",0.5,0.75,0.125,"), std::string::npos) << row1;  // first, peak, last
+  EXPECT_NE(row2.find(",,,"), std::string::npos) << row2;               // no density solve
+  EXPECT_NE(header.find(",density_residual_last,wall_guarded,wall_guard_max_shift"), std::string::npos);
+  EXPECT_EQ(row1.substr(row1.size() - 24), ",0.5,0.75,0.125,3,0.0025") << row1;
+  EXPECT_EQ(row2.substr(row2.size() - 6), ",,,0,0") << row2;
   const auto columns = [](const std::string& line) { return std::count(line.begin(), line.end(), ',') + 1; };
   EXPECT_EQ(columns(row1), columns(header));
 }
@@ -136,8 +143,10 @@ TEST(RunStatistics, MeansAndTailWrench)
     r.divergence_iterations = 1;
     r.density_iterations = s % 2 == 0 ? 4 : 2;
     r.density_error = 0.001 * s;
-    r.density_converged = s != 5;         // one step at max_iterations
-    r.divergence_converged = s % 4 != 0;  // five
+    r.density_converged = s != 5;                       // one step at max_iterations
+    r.divergence_converged = s % 4 != 0;                // five
+    r.wall_guarded = s % 10 == 0 ? std::size_t(s) : 0;  // steps 10 and 20
+    r.wall_guard_max_shift = s % 10 == 0 ? 1e-4 * s : 0.0;
     const io::Wrench tank{Vec3d(s, 0, 0), Vec3d(0, 0, 2.0 * s)};
     const io::Wrench ball{Vec3d(0, 0, -1), Vec3d::Zero()};
     stats.add(r, 1.5, {tank, ball});
@@ -156,6 +165,11 @@ TEST(RunStatistics, MeansAndTailWrench)
   EXPECT_NEAR(summary.max_density_error, 0.02, 1e-12);
   EXPECT_EQ(summary.density_not_converged_steps, 1u);
   EXPECT_EQ(summary.divergence_not_converged_steps, 5u);
+  EXPECT_EQ(summary.wall_guarded_steps, 2u);
+  EXPECT_EQ(summary.wall_guarded_particles, 30u);
+  EXPECT_DOUBLE_EQ(summary.wall_guard_max_shift, 2e-3);
+  const std::string json = io::toJson(summary);
+  EXPECT_NE(json.find("\"wall_guarded_particles\": 30"), std::string::npos) << json;
   ASSERT_EQ(summary.bodies.size(), 2u);
   EXPECT_EQ(summary.bodies[0].name, "tank");
   EXPECT_TRUE(summary.bodies[0].last.force.isApprox(Vec3d(20, 0, 0)));

@@ -8,6 +8,7 @@
 
 #include "fluid_sim/core/dfsph_solver.h"
 #include "fluid_sim/core/parallel.h"
+#include "fluid_sim/core/wall_guard.h"
 
 namespace fluid_sim
 {
@@ -79,6 +80,7 @@ void relaxFill(const SceneConfig& scene, const FluidConstants& constants, const 
   relax_scene.solver.min_iterations = std::min(scene.solver.min_iterations, 2);
   const std::unique_ptr<PressureSolver> solver =
       makePressureSolver({relax_scene, constants, fluid, bodies, neighbors}, fluid);
+  WallGuard guard;
 
   // Eq. A22: the pseudo-step tau (s). Under gravity, gravity alone moves a particle kRelaxFall
   // spacings per pseudo-step (with the solver's own dt, 10^-5 m at 1 ms: a gap of half a spacing
@@ -134,7 +136,12 @@ void relaxFill(const SceneConfig& scene, const FluidConstants& constants, const 
     BodyWrenches wrenches(bodies.size());
     solver->densitySolve(tau, rep, wrenches);
     before = fluid.x;
+    // The wall guard (Eq. A31) as in a step: no pseudo-step carries a particle into a wall's
+    // layer, through a thin shell (an open mesh) included, which the test below cannot see.
+    guard.prepare(scene.solver.wall_guard * scene.spacing, scene.spacing, constants.kernel, fluid, bodies,
+                  neighbors.fluid_boundary);
     solver->integrate(tau);
+    guard.apply(tau, constants.kernel, fluid, bodies, constants.mass, wrenches, neighbors.fluid_boundary);
     parallelFor(n, [&](std::size_t i) {
       const Vec3& start = x0[original[i]];
       if (kind[i] == FillKind::Explicit)

@@ -432,6 +432,8 @@ void validate(const SceneConfig& s)
     throw ConfigError("solver.min_divergence_iterations", "must be in [0, solver.max_iterations]");
   if (!(sv.omega > 0.0 && sv.omega <= 1.0))
     throw ConfigError("solver.omega", "must be in (0, 1], got " + str(sv.omega));
+  if (!(sv.wall_guard >= 0.0 && sv.wall_guard <= 1.0))
+    throw ConfigError("solver.wall_guard", "must be in [0, 1] spacings (0 = off), got " + str(sv.wall_guard));
   if (!(sv.chebyshev_rho >= 0.0 && sv.chebyshev_rho < 1.0))
     throw ConfigError("solver.chebyshev_rho", "must be in [0, 1) (0 = off), got " + str(sv.chebyshev_rho));
   if (sv.chebyshev_delay < 1 || sv.chebyshev_delay > kMaxSolverIterations)

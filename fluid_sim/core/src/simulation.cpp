@@ -25,6 +25,7 @@
 #include "fluid_sim/core/rigid_dynamics.h"
 #include "fluid_sim/core/step_checks.h"
 #include "fluid_sim/core/step_timer.h"
+#include "fluid_sim/core/wall_guard.h"
 
 namespace fluid_sim
 {
@@ -130,8 +131,16 @@ struct Simulation::Impl
     {
       PhaseTimer timer(rep.ms_density);
       solver->densitySolve(dt, rep, wrenches);
-      // 6. v(t + dt) = v** + dt a^p, x(t + dt) = x(t) + dt v(t + dt) (Eq. A16).
+      // 6. v(t + dt) = v** + dt a^p, x(t + dt) = x(t) + dt v(t + dt) (Eq. A16), then the wall
+      //    guard (Eq. A31; wall_guard.cpp): no particle's step ends across a wall's layer. Its
+      //    momentum goes to the walls' wrenches.
+      guard.prepare(scene.solver.wall_guard * scene.spacing, scene.spacing, constants.kernel, fluid, bodies,
+                    neighbors.fluid_boundary);
       solver->integrate(dt);
+      const WallGuardReport guarded =
+          guard.apply(dt, constants.kernel, fluid, bodies, constants.mass, wrenches, neighbors.fluid_boundary);
+      rep.wall_guarded = guarded.particles;
+      rep.wall_guard_max_shift = guarded.max_shift;
     }
     rep.boundary_pressure_work = solver->boundaryPressureWork();
     // The fluid's force and torque on each body over the step (Eq. A12), and its contacts.
@@ -231,6 +240,7 @@ struct Simulation::Impl
   Neighborhoods neighbors;
   NonPressureForces forces;
   std::unique_ptr<PressureSolver> solver;  // compiled for the scene's boundary pressure method
+  WallGuard guard;                         // Eq. A31, per step
   double t = 0.0;                          // s, simulated time
   double dt_next;                          // s, the time step of the next step()
   std::size_t removed_total = 0;           // particles that left the domain since t = 0

@@ -38,6 +38,9 @@ void RunStatistics::add(const StepReport& report, double wall_ms, const std::vec
   density_error_max_ = std::max(density_error_max_, report.density_error);
   if (!report.density_converged) ++density_not_converged_;
   if (!report.divergence_converged) ++divergence_not_converged_;
+  if (report.wall_guarded > 0) ++wall_guarded_steps_;
+  wall_guarded_particles_ += report.wall_guarded;
+  wall_guard_max_shift_ = std::max(wall_guard_max_shift_, report.wall_guard_max_shift);
 }
 
 void RunStatistics::fill(RunSummary& summary) const
@@ -53,6 +56,9 @@ void RunStatistics::fill(RunSummary& summary) const
   summary.max_density_error = density_error_max_;
   summary.density_not_converged_steps = density_not_converged_;
   summary.divergence_not_converged_steps = divergence_not_converged_;
+  summary.wall_guarded_steps = wall_guarded_steps_;
+  summary.wall_guarded_particles = wall_guarded_particles_;
+  summary.wall_guard_max_shift = wall_guard_max_shift_;
 
   const std::size_t num_bodies = body_names_.size();
   summary.bodies.assign(num_bodies, BodySummary{});
@@ -125,6 +131,9 @@ std::string toJson(const RunSummary& s)
   j["max_density_error"] = s.max_density_error;
   j["density_not_converged_steps"] = s.density_not_converged_steps;
   j["divergence_not_converged_steps"] = s.divergence_not_converged_steps;
+  j["wall_guarded_steps"] = s.wall_guarded_steps;
+  j["wall_guarded_particles"] = s.wall_guarded_particles;
+  j["wall_guard_max_shift_m"] = s.wall_guard_max_shift;
   j["bodies"] = bodies;
   j["fill"] = {{"trimmed", s.fill.trimmed},
                {"overlapped", s.fill.overlapped},

@@ -125,6 +125,7 @@ SolverConfig readSolver(const Entry& e)
     s.warm_start_guess = readNamed(*m, {WarmStartGuess::Previous, WarmStartGuess::Damped});
   r.read("omega", s.omega);
   r.read("chebyshev_rho", s.chebyshev_rho);
+  r.read("wall_guard", s.wall_guard);
   r.read("chebyshev_delay", s.chebyshev_delay);
   r.read("clamp_boundary_pressure", s.clamp_boundary_pressure);
   r.read("limit_boundary_pressure", s.limit_boundary_pressure);

@@ -15,7 +15,8 @@ const std::string& StatsCsvWriter::header()
       "max_density_error,ms_neighbors,ms_divergence,ms_density,mls_fallbacks,mls_reduced,active_boundary,"
       "divergence_converged,density_converged,kinetic_energy,boundary_pressure_work,"
       "coefficient_min,coefficient_max,coefficient_abs_sum_max,coefficient_abs_sum_mean,feedback_ratio_min,"
-      "feedback_ratio_max,density_residual_first,density_residual_peak,density_residual_last";
+      "feedback_ratio_max,density_residual_first,density_residual_peak,density_residual_last,wall_guarded,"
+      "wall_guard_max_shift";
   return line;
 }
 
@@ -42,7 +43,7 @@ void StatsCsvWriter::write(std::size_t step, const StepReport& r, double wall_ms
     out_ << ",,";
   else
     out_ << res.front() << ',' << *std::max_element(res.begin(), res.end()) << ',' << res.back();
-  out_ << '\n';
+  out_ << ',' << r.wall_guarded << ',' << r.wall_guard_max_shift << '\n';
 }
 
 void StatsCsvWriter::flush()

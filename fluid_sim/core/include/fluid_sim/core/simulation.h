@@ -41,6 +41,12 @@ struct StepReport
   std::size_t mls_fallbacks = 0;    // boundary particles using Eq. 16 this step (MLS only)
   std::size_t mls_reduced = 0;      // boundary particles with a pseudo-inverse fit (MLS only)
   std::size_t active_boundary = 0;  // boundary particles with a fluid neighbour
+  // The wall guard (solver.wall_guard, Eq. A31): fluid particles whose step it shortened (each
+  // would have ended closer to a wall's particle layer than the guard distance), and the largest
+  // correction (m). Water that stays off its walls reads 0: more means the pressure solve let
+  // particles run at a wall (fast water, a large cfl, a loose tolerance, thin walls).
+  std::size_t wall_guarded = 0;
+  double wall_guard_max_shift = 0.0;
   // The extrapolation p_b = sum_f c_bf p_f (sph, mls) this step, over the active boundary
   // particles: the smallest and largest coefficient c_bf, and the largest and mean sum_f |c_bf|
   // (how much the fit amplifies noise in the fluid pressures; 1 for weighted averages).

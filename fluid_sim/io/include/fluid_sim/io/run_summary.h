@@ -79,6 +79,11 @@ struct RunSummary
   // density_converged / divergence_converged false): the water more compressed than asked.
   std::size_t density_not_converged_steps = 0;
   std::size_t divergence_not_converged_steps = 0;
+  // The wall guard (solver.wall_guard, Eq. A31): steps in which it shortened some particle's step,
+  // the sum over the steps of the particles it shortened, the largest correction (m).
+  std::size_t wall_guarded_steps = 0;
+  std::size_t wall_guarded_particles = 0;
+  double wall_guard_max_shift = 0.0;
   std::vector<BodySummary> bodies;
   FillReport fill;  // the fill before t = 0 (JSON: fill {trimmed, relaxed, relax_steps, settled, ...})
   std::optional<SpillSummary> spill;         // only for a scene with a spill key (JSON: spill, else absent)
@@ -130,6 +135,9 @@ private:
   double density_error_max_ = 0.0;      // relative
   std::size_t density_not_converged_ = 0;
   std::size_t divergence_not_converged_ = 0;
+  std::size_t wall_guarded_steps_ = 0;
+  std::size_t wall_guarded_particles_ = 0;
+  double wall_guard_max_shift_ = 0.0;  // m
 };
 
 /// The summary as pretty-printed JSON text. Keys: summary_version, scene, overrides, method,
@@ -137,7 +145,8 @@ private:
 /// removed_total}, boundary_particles, steps, simulated_time_s, wall_time_s, step_time_s,
 /// ms_per_step, real_time_factor, mean_divergence_iterations, mean_density_iterations,
 /// mean_density_error, max_density_error, density_not_converged_steps,
-/// divergence_not_converged_steps, bodies [{name, force [N], torque [N m], mean_force,
+/// divergence_not_converged_steps, wall_guarded_steps, wall_guarded_particles,
+/// wall_guard_max_shift_m, bodies [{name, force [N], torque [N m], mean_force,
 /// mean_torque}] (world frame, torque about the body origin), for a scene with a spill key
 /// spill {below_m, particles, volume_m3, max_particles, max_volume_m3}, and for a scene with free
 /// bodies free_bodies {NAME: {center_of_mass [m], orientation [qx, qy, qz, qw], linear_velocity
