@@ -932,6 +932,22 @@ void addFx(WrenchMeans& means, double dt, double fx, double max_pressure = 0.0)
 }
 }  // namespace
 
+TEST(SolverStats, CarriesTheStepsFigures)
+{
+  const Simulation sim = namesScene("b");
+  StepReport r;
+  r.dt = 0.002;
+  r.density_iterations = 5;
+  r.wall_guarded = 7;
+  const fluid_msgs::SolverStats s = toSolverStats(r, sim, 0.5, false, "ok");
+  EXPECT_EQ(s.time_step, 0.002);
+  EXPECT_EQ(s.density_iterations, 5);
+  EXPECT_EQ(s.wall_guarded, 7u);
+  EXPECT_EQ(s.fluid_particles, sim.numFluidParticles());
+  EXPECT_EQ(s.real_time_factor, 0.5);
+  EXPECT_EQ(s.status, "ok");
+}
+
 TEST(WrenchWindow, EachMessageIsTheTimeWeightedMeanOverTheWindowOfSimulatedTime)
 {
   const Simulation sim = namesScene("b");

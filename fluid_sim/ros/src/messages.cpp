@@ -266,6 +266,7 @@ fluid_msgs::SolverStats toSolverStats(const StepReport& report, const Simulation
   s.max_speed = report.max_speed;
   s.fluid_particles = static_cast<std::uint32_t>(sim.numFluidParticles());
   s.removed_particles = static_cast<std::uint32_t>(sim.removedTotal());
+  s.wall_guarded = static_cast<std::uint32_t>(report.wall_guarded);
   s.step_wall_time = report.ms_total * 1e-3;
   s.real_time_factor = real_time_factor;
   s.paused = paused;

@@ -294,7 +294,10 @@ void SolverLoop::applyCommands()
     {
       build(poses, poses_stamp);
       sim_->updateSettings(solver, visc, stab);  // live settings survive a reset
+      // The per-step figures of the summary start again with the steps they are divided by.
       steps_ = 0;
+      sum_divergence_iterations_ = sum_density_iterations_ = sum_step_ms_ = 0;
+      wall_guarded_steps_ = sum_wall_guarded_ = 0;
       last_status_ = "ok";
       last_report_ = StepReport();  // the stats no longer show the blown-up step's speeds
       if (unstable_)
@@ -647,6 +650,8 @@ void SolverLoop::afterStep(const StepReport& rep, double paced_rtf)
   sum_divergence_iterations_ += rep.divergence_iterations;
   sum_density_iterations_ += rep.density_iterations;
   sum_step_ms_ += rep.ms_total;
+  if (rep.wall_guarded > 0) ++wall_guarded_steps_;
+  sum_wall_guarded_ += rep.wall_guarded;
   last_report_ = rep;
   wrench_means_.add(*sim_, rep.dt);
   // Probes averaged over ~probe_window are read after every step (one counting sort of the
@@ -807,6 +812,9 @@ void SolverLoop::printSummary()
      << "  publishing: " << frames_ << " frames, copying a frame out of the solver took "
      << (frames_ ? sum_copy_ms_ / double(frames_) : 0.0) << " ms ("
      << (frames_ ? 100.0 * (sum_copy_ms_ / frames_) / (sum_step_ms_ / n) : 0.0) << " % of a step)\n";
+  if (sum_wall_guarded_ > 0)
+    os << "  wall guard (solver.wall_guard): held " << sum_wall_guarded_ << " particle steps short of a wall in "
+       << wall_guarded_steps_ << " of " << steps_ << " steps (the pressure alone let that water run into a wall)\n";
   // The wrenches of the last published message, each a mean over ~wrench_window, as the topics
   // gave them: one step's force jitters by tens of per cent (it read 0.94 N where the messages
   // and the runner's mean read 0.82). Before any message, the last step's.

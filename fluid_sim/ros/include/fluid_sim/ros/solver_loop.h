@@ -236,6 +236,8 @@ private:
   std::uint64_t steps_ = 0, frames_ = 0;
   double sum_divergence_iterations_ = 0, sum_density_iterations_ = 0;
   double sum_step_ms_ = 0, sum_copy_ms_ = 0;  // ms: stepping, and copying frames out
+  // The wall guard (solver.wall_guard, Eq. A31): steps it acted in, particles it held in them.
+  std::uint64_t wall_guarded_steps_ = 0, sum_wall_guarded_ = 0;
   WallClock::time_point run_start_ = WallClock::now();
 };
 
