@@ -219,6 +219,42 @@ TEST(Runner, SolvesStoppedAtMaxIterationsAreCountedAndSaid)
   EXPECT_EQ(plain.out.find("steps ended the density solve"), std::string::npos) << plain.out;
 }
 
+TEST(Runner, TheWallGuardsWorkIsCountedAndSaid)
+{
+  // Still water at 4 ms steps: mirroring's wall lets it sink towards the floor's layer, where the
+  // guard (solver.wall_guard 0.5) holds it; MLS keeps it off, and the guard never acts.
+  test::TempDir dir;
+  dir.write("tiny.yaml", kTinyScene);
+  const std::string still = kStillWater + " --duration 0.2 --set solver.wall_guard=0.5";
+  const RunResult r = run(dir, still + " --out mirroring --set solver.boundary_pressure=mirroring");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json s = readJson(dir.file("mirroring/summary.json"));
+  const std::size_t guarded = s["wall_guarded_particles"].get<std::size_t>();
+  EXPECT_GT(guarded, 0u);
+  EXPECT_GT(s["wall_guarded_steps"].get<std::size_t>(), 0u);
+  EXPECT_GT(s["wall_guard_max_shift_m"].get<double>(), 0.0);
+  EXPECT_LT(s["wall_guard_max_shift_m"].get<double>(), 0.02);  // under a spacing
+  EXPECT_NE(r.out.find("guard    the wall guard (solver.wall_guard) held " + std::to_string(guarded)),
+            std::string::npos)
+      << r.out;
+  // stats.csv's wall_guarded column (the second to last) adds up to the summary's count.
+  std::istringstream lines(test::readFile(dir.file("mirroring/stats.csv")));
+  std::string line;
+  std::getline(lines, line);
+  ASSERT_EQ(line.substr(line.size() - 34), ",wall_guarded,wall_guard_max_shift") << line;
+  std::size_t sum = 0;
+  while (std::getline(lines, line))
+  {
+    const std::size_t last = line.rfind(','), before = line.rfind(',', last - 1);
+    sum += std::stoul(line.substr(before + 1, last - before - 1));
+  }
+  EXPECT_EQ(sum, guarded);
+  const RunResult mls = run(dir, still + " --out mls --set solver.boundary_pressure=mls");
+  ASSERT_EQ(mls.exit_code, 0) << mls.err;
+  EXPECT_EQ(readJson(dir.file("mls/summary.json"))["wall_guarded_particles"], 0);
+  EXPECT_EQ(mls.out.find("wall guard"), std::string::npos) << mls.out;
+}
+
 TEST(Runner, WritesEveryBodysWrenchHistory)
 {
   // wrenches.csv: each body's force and torque averaged between the measurement times (a force

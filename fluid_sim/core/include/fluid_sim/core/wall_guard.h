@@ -49,11 +49,14 @@ public:
                const BodySet& bodies, const NeighborLists& fluid_boundary);
 
   /// After x(t + dt) = x(t) + dt v(t + dt), with the lists prepare() was given: c at the new
-  /// position, with every boundary particle of the step's lists moved by dt v_b; a particle above its limit is moved
-  /// back (Newton steps along grad c, at most as far as it moved towards the walls in the step), and its velocity
-  /// towards the walls (along -grad c, relative to their velocity weighted as grad c) is removed. The momentum taken
-  /// from the fluid, m dv, is the walls': -m dv / dt split over the boundary particles as their shares of grad c, each
-  /// added to its body as a force at it (N, torque about the body origin, N m).
+  /// position, with every boundary particle of the lists moved by dt v_b (and, for a step that
+  /// ended clear of the walls, at points of its path every 0.25 spacings, to catch one that passed
+  /// over a layer). A particle above its limit there is moved along n = -grad c / |grad c| to
+  /// where c is at the limit (regula falsi; at most as far as the step moved it relative to the
+  /// walls), and its velocity's component along -n relative to the walls' (their velocities
+  /// weighted by V_b W) is removed. The momentum taken from the fluid, m dv, is the walls':
+  /// -m dv / dt split over the boundary particles by their shares V_b grad W_ib . n of the push,
+  /// each added to its body as a force at it (N; torque about the body origin, N m).
   WallGuardReport apply(double dt, const CubicKernel& kernel, FluidParticles& fluid, const BodySet& bodies, Real mass,
                         BodyWrenches& wrenches, const NeighborLists& fluid_boundary);
 
