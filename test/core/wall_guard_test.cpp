@@ -134,6 +134,16 @@ TEST(WallGuard, AParticleThrownAtAFloorStopsHalfASpacingFromItsLayer)
   EXPECT_NEAR(g.wrenches.force[0].x(), 0.0, 1e-4 * m * 40.0 / 0.001);
 }
 
+TEST(WallGuard, ABlownUpParticleCostsAFewChecksAndIsStillStopped)
+{
+  // 1e12 m/s for 1 ms: the path's check stops 4 spacings from the start (the lists see no wall
+  // beyond); checked piece by piece to its end, 2e11 pieces (an unstable run hung in such a step).
+  GuardOnly g(0.001, Vec3(0, 0, Real(-1e12)), 0.5, Vec3::Zero(), 0.001);
+  EXPECT_EQ(g.report.particles, 1u);
+  EXPECT_NEAR(g.fluid.x[0].z(), 0.0, 5e-5);
+  EXPECT_NEAR(g.fluid.v[0].z(), 0.0, 1e-6);
+}
+
 TEST(WallGuard, AParticleAlreadyCloserIsHeldWhereItIs)
 {
   // Guard distance one spacing (2 cm), the particle 1.1 cm from the layer and moving at it: the

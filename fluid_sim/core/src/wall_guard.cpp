@@ -20,6 +20,11 @@ constexpr int kSearchSteps = 10;
 /// layer: a particle carried through a layer passes within 0.125 spacings of it at one of the
 /// pieces' ends, where c of a flat layer exceeds 0.6, above any guard distance's (0.49 at 0.5).
 constexpr double kCrossingPiece = 0.25;
+/// How much of that path is checked (spacings): the step's lists hold the boundary particles
+/// within 2 spacings of its start, which no point farther than 4 spacings along the path sees.
+/// Without the bound a blown-up particle (km per step) cost millions of checks in one step: an
+/// unstable run at 8 ms steps, which the stability check stops after the step, hung in it.
+constexpr double kCrossingReach = 4.0;
 
 /// c (unit-less) and grad c (1/m) at x over row i's boundary particles, each moved by dt v_b
 /// (Eq. A31); also the walls' velocity there, the boundary velocities weighted by V_b W (m/s).
@@ -113,11 +118,13 @@ WallGuardReport WallGuard::apply(double dt, const CubicKernel& kernel, FluidPart
     Real tau = 1;  // fraction of the step at x
     if (!(f.c > limit_[k]))
     {
-      const int pieces = int(std::ceil(length / piece));
+      const double pieces = std::ceil(double(length) / double(piece));
+      if (!std::isfinite(pieces)) return;  // a non-finite step: the stability check reports it
+      const double checked = std::min(pieces, std::ceil(kCrossingReach / kCrossingPiece));
       bool crossed = false;
-      for (int p = 1; p < pieces && !crossed; ++p)
+      for (int p = 1; p < checked && !crossed; ++p)
       {
-        tau = Real(p) / Real(pieces);
+        tau = Real(double(p) / pieces);
         x = start_[k] + tau * (x_end - start_[k]);
         f = fillAt(x, i, tau * step, kernel, bodies, fluid_boundary);
         crossed = f.c > limit_[k];
