@@ -8,6 +8,7 @@
 #include <cstdio>
 
 #include "fluid_sim/core/bodies.h"
+#include "fluid_sim/core/boundary_sampling.h"
 #include "fluid_sim/core/neighborhoods.h"
 #include "fluid_sim/core/simulation.h"
 #include "fluid_sim/core/wall_guard.h"
@@ -232,6 +233,19 @@ TEST(WallGuard, TheFillsRelaxationDoesNotPushWaterThroughAThinShell)
   std::printf("open mesh cup at t = 0: lowest particle at z = %.5f m without the guard, %.5f m with it\n", off, on);
   EXPECT_LT(off, 0.0) << "the relaxation no longer pushes a particle through: find a harder case";
   EXPECT_GE(on, -1e-6);  // not below the floor's surface (the layer is on it, at z = 0)
+}
+
+TEST(WallGuard, AFlatLayerFillsMostOfTheKernelOnItAndNoneBeyondTheSupport)
+{
+  // Eq. A31's c of a flat layer at 2 cm (support 4 cm): 0.70 on its plane (the volume factor
+  // gamma of Eq. A3), 0.49 half a spacing off it (the guard's 0.5), 0.15 a spacing off (water at
+  // rest), 0 beyond the support.
+  const double s = 0.02;
+  EXPECT_EQ(flatLayerFill(s, 2 * s, 0.0), flatLayerVolumeFactor(s, 2 * s));
+  EXPECT_NEAR(flatLayerFill(s, 2 * s, 0.0), 0.7006, 1e-3);
+  EXPECT_NEAR(flatLayerFill(s, 2 * s, 0.5 * s), 0.4870, 1e-3);
+  EXPECT_NEAR(flatLayerFill(s, 2 * s, 1.0 * s), 0.1497, 1e-3);
+  EXPECT_EQ(flatLayerFill(s, 2 * s, 2.0 * s), 0.0);
 }
 
 TEST(WallGuard, DistanceIsChecked)

@@ -15,16 +15,25 @@
 
 namespace fluid_sim
 {
-double flatLayerVolumeFactor(double spacing, double support)
+double flatLayerFill(double spacing, double support, double distance)
 {
-  // gamma = s^3 * sum over a square lattice of spacing s in a plane of W(r): then a flat layer of
-  // spacing s gets V_b = s^3, the volume of the fluid layer it stands in for.
+  // s^3 * sum over a square lattice of spacing s in a plane, at `distance` from it, of W(r). At
+  // distance 0 the terms are W(s sqrt(i^2 + j^2)) exactly (q = 0 adds nothing): the volume factor
+  // below.
   const CubicKernel kernel{Real(support)};
   const int reach = int(std::ceil(support / spacing));
-  double sum = 0.0;  // 1/m^3
+  const double q = distance / spacing;  // spacings
+  double sum = 0.0;                     // 1/m^3
   for (int j = -reach; j <= reach; ++j)
-    for (int i = -reach; i <= reach; ++i) sum += kernel.W(Real(spacing * std::sqrt(double(i * i + j * j))));
+    for (int i = -reach; i <= reach; ++i) sum += kernel.W(Real(spacing * std::sqrt(q * q + double(i * i + j * j))));
   return spacing * spacing * spacing * sum;
+}
+
+double flatLayerVolumeFactor(double spacing, double support)
+{
+  // gamma = c of a flat layer on its own plane: then a flat layer of spacing s gets V_b = s^3,
+  // the volume of the fluid layer it stands in for.
+  return flatLayerFill(spacing, support, 0.0);
 }
 
 std::vector<Real> boundaryVolumes(const std::vector<Vec3d>& points, double support, double gamma)

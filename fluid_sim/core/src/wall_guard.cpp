@@ -4,8 +4,8 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdint>
 
+#include "fluid_sim/core/boundary_sampling.h"
 #include "fluid_sim/core/parallel.h"
 
 namespace fluid_sim
@@ -58,22 +58,12 @@ Fill fillAt(const Vec3& x, std::size_t i, Real dt, const CubicKernel& kernel, co
 }
 }  // namespace
 
-double flatLayerFill(const CubicKernel& kernel, double spacing, double distance)
-{
-  const int reach = int(std::ceil(kernel.support() / spacing));
-  double sum = 0.0;  // 1/m^3
-  for (int j = -reach; j <= reach; ++j)
-    for (int i = -reach; i <= reach; ++i)
-      sum += kernel.W(Real(std::sqrt(distance * distance + spacing * spacing * double(i * i + j * j))));
-  return spacing * spacing * spacing * sum;
-}
-
 void WallGuard::prepare(double distance, double spacing, const CubicKernel& kernel, const FluidParticles& fluid,
                         const BodySet& bodies, const NeighborLists& fluid_boundary)
 {
   particle_.clear();
   if (!(distance > 0)) return;
-  const Real c_max = Real(flatLayerFill(kernel, spacing, distance));
+  const Real c_max = Real(flatLayerFill(spacing, kernel.support(), distance));  // Eq. A31
   spacing_ = spacing;
   const std::size_t n = fluid.size();
   // The rows with boundary neighbours, in particle order (serial: one test per row).
@@ -101,9 +91,8 @@ WallGuardReport WallGuard::apply(double dt, const CubicKernel& kernel, FluidPart
   if (m == 0) return report;
   const Real step = Real(dt);
   dv_.assign(m, Vec3::Zero());
-  shift_.assign(m, Vec3::Zero());
+  shift_.assign(m, Real(0));
   normal_.assign(m, Vec3::Zero());
-  std::vector<std::uint8_t> guarded(m, 0);
   const Real piece = Real(kCrossingPiece * spacing_);
   parallelFor(m, [&](std::size_t k) {
     const Index i = particle_[k];
@@ -168,8 +157,7 @@ WallGuardReport WallGuard::apply(double dt, const CubicKernel& kernel, FluidPart
     // The rest of the step from the guarded point on moves with the walls.
     x += (Real(1) - tau) * step * f.wall_velocity;
     if (x == x_end) return;
-    guarded[k] = 1;
-    shift_[k] = x - x_end;
+    shift_[k] = (x - x_end).norm();
     fluid.x[i] = x;
     const Real vn = normal.dot(fluid.v[i] - f.wall_velocity);  // m/s, < 0 towards the walls
     if (vn < 0)
@@ -181,32 +169,32 @@ WallGuardReport WallGuard::apply(double dt, const CubicKernel& kernel, FluidPart
   });
   // The walls' share of the momentum: serial over the guarded particles (few), in particle order.
   const Real f_scale = mass / step;  // kg/s: m dv / dt is the force on the fluid
+  std::vector<Real> push;            // per pair of the row: V_b grad W_ib . n (1/m), towards the fluid
   for (std::size_t k = 0; k < m; ++k)
   {
-    if (!guarded[k]) continue;
+    if (!(shift_[k] > 0)) continue;
     ++report.particles;
-    report.max_shift = std::max(report.max_shift, double(shift_[k].norm()));
+    report.max_shift = std::max(report.max_shift, double(shift_[k]));
     if (dv_[k].squaredNorm() == 0 || bodies.size() == 0) continue;
-    const Index i = particle_[k];
+    const Index i = particle_[k], begin = fluid_boundary.offset[i], end = fluid_boundary.offset[i + 1];
     const Vec3 x = fluid.x[i];
-    // Each boundary particle's share of the walls' push along the normal, V_b grad W . n over
-    // the sum: the shares add up to 1.
+    // Each boundary particle's share of the walls' push along the normal: the shares add up to 1.
+    push.assign(end - begin, Real(0));
     Real total = 0;
-    for (Index q = fluid_boundary.offset[i]; q < fluid_boundary.offset[i + 1]; ++q)
+    for (Index q = begin; q < end; ++q)
     {
       const Index b = fluid_boundary.index[q];
-      total -= bodies.volume[b] * kernel.gradW(x - (bodies.x[b] + step * bodies.v[b])).dot(normal_[k]);
+      push[q - begin] = -bodies.volume[b] * kernel.gradW(x - (bodies.x[b] + step * bodies.v[b])).dot(normal_[k]);
+      total += push[q - begin];
     }
     if (!(total > 0)) continue;
     const Vec3d force = -(f_scale * dv_[k]).template cast<double>();  // N, on the walls together
-    for (Index q = fluid_boundary.offset[i]; q < fluid_boundary.offset[i + 1]; ++q)
+    for (Index q = begin; q < end; ++q)
     {
+      if (push[q - begin] == 0) continue;
       const Index b = fluid_boundary.index[q];
-      const Real share =
-          -bodies.volume[b] * kernel.gradW(x - (bodies.x[b] + step * bodies.v[b])).dot(normal_[k]) / total;
-      if (share == 0) continue;
       const Index body = bodies.body_of[b];
-      const Vec3d fb = double(share) * force;
+      const Vec3d fb = double(push[q - begin] / total) * force;
       wrenches.force[body] += fb;
       wrenches.torque[body] += (bodies.x[b].template cast<double>() - bodies[body].pose.translation).cross(fb);
     }

@@ -86,4 +86,10 @@ std::vector<Real> boundaryVolumes(const std::vector<Vec3d>& points, double suppo
 /// (engineering choice, docs/method_notes.md).
 double flatLayerVolumeFactor(double spacing, double support);
 
+/// sum_b V_b W over a flat layer on a square lattice of spacing `spacing` (m), volume s^3 each, at
+/// `distance` (m) from its plane: the part of a fluid particle's kernel (support m) the layer
+/// fills (unit-less; 0.70 on the layer, 0.49 half a spacing off it). The wall guard's measure
+/// (Eq. A31); on the plane, gamma.
+double flatLayerFill(double spacing, double support, double distance);
+
 }  // namespace fluid_sim

@@ -34,10 +34,6 @@ struct WallGuardReport
   double max_shift = 0.0;     // m, the largest correction of a position
 };
 
-/// c of a flat layer of boundary particles on a square lattice of spacing s (m), volume s^3 each
-/// (Eq. A3), at `distance` (m) from it (Eq. A31).
-double flatLayerFill(const CubicKernel& kernel, double spacing, double distance);
-
 class WallGuard
 {
 public:
@@ -67,7 +63,7 @@ private:
   std::vector<Vec3> start_;      // m, x_i(t)
   // Per particle of particle_, filled by apply(): velocity change (m/s), zero where untouched.
   std::vector<Vec3> dv_;
-  std::vector<Vec3> shift_;   // m, position change
+  std::vector<Real> shift_;   // m, how far the guard moved it (0: untouched)
   std::vector<Vec3> normal_;  // unit-less, the wall normal the guard acted along
   double spacing_ = 0.0;      // m
 };
