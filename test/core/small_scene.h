@@ -1,6 +1,7 @@
 #pragma once
 // A small valid scene for the core's tests: a 0.2 m fluid cube at 5 cm spacing in a 0.8 m domain,
 // no boundaries. Tests change one value and check what the core makes of it.
+#include <cmath>
 #include <string>
 
 #include "fluid_sim/core/scene_config.h"
@@ -57,5 +58,29 @@ inline std::string errorKey(const SceneConfig& s)
   }
   return "<no error>";
 }
+/// A mesh cylinder of `facets` side faces (radius r, height h, base at z = 0), normals out, closed
+/// or open at the top (a cup).
+inline TriangleMesh cylinderMesh(int facets, double r, double h, bool closed = true)
+{
+  TriangleMesh m;
+  m.vertices.push_back(Vec3d(0, 0, 0));
+  m.vertices.push_back(Vec3d(0, 0, h));
+  for (int k = 0; k < facets; ++k)
+  {
+    const double a = 2.0 * M_PI * k / facets;
+    m.vertices.push_back(Vec3d(r * std::cos(a), r * std::sin(a), 0.0));
+    m.vertices.push_back(Vec3d(r * std::cos(a), r * std::sin(a), h));
+  }
+  for (int k = 0; k < facets; ++k)
+  {
+    const int a0 = 2 + 2 * k, a1 = a0 + 1, b0 = 2 + 2 * ((k + 1) % facets), b1 = b0 + 1;
+    m.triangles.push_back({a0, b0, b1});
+    m.triangles.push_back({a0, b1, a1});
+    m.triangles.push_back({0, b0, a0});
+    if (closed) m.triangles.push_back({1, a1, b1});
+  }
+  return m;
+}
+
 }  // namespace test
 }  // namespace fluid_sim
