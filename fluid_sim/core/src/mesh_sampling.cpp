@@ -619,14 +619,46 @@ void fillGaps(const TriangleMesh& mesh, const PlanarPatches& patches, const std:
 
 // ------------------------------------------------------------------ pass 4: the ragged borders
 
+/// The triangle across each edge of a triangle over which a sample may walk: a smooth edge (two
+/// valid triangles whose normals are within 30 degrees: not a feature edge, which pass 1
+/// sampled); -1 across a feature edge. Found on first use and kept (a walk crosses few edges of a
+/// large mesh, and the edge table's hash lookups are the walk's cost).
+class SmoothNeighbours
+{
+public:
+  SmoothNeighbours(const TriangleMesh& mesh, const TriangleNormals& faces, const EdgeTable& edges)
+      : mesh_(mesh), faces_(faces), edges_(edges), across_(mesh.triangles.size(), {kUnknown, kUnknown, kUnknown})
+  {
+  }
+  std::int64_t across(std::size_t t, int k)
+  {
+    std::int64_t& known = across_[t][k];
+    if (known == kUnknown)
+    {
+      const auto& along = edges_.trianglesAlong(mesh_.triangles[t][k], mesh_.triangles[t][(k + 1) % 3]);
+      const std::size_t next = along.size() == 2 ? (along[0] == t ? along[1] : along[0]) : t;
+      const bool smooth = next != t && faces_.valid[next] && faces_.normal[next].dot(faces_.normal[t]) >= kCrease;
+      known = smooth ? std::int64_t(next) : -1;
+    }
+    return known;
+  }
+
+private:
+  static constexpr std::int64_t kUnknown = -2;
+  const double kCrease = std::cos(30.0 * M_PI / 180.0);
+  const TriangleMesh& mesh_;
+  const TriangleNormals& faces_;
+  const EdgeTable& edges_;
+  std::vector<std::array<std::int64_t, 3>> across_;
+};
+
 /// The triangle that p (near the surface) lies in, walking from triangle `from` across the edge p
-/// lies farthest beyond, over smooth edges only (not feature edges: borders and creases sharper
-/// than 30 degrees, which pass 1 sampled); -1 if the walk meets a feature edge or goes on for 64
-/// triangles (then p counts as off the surface). Within `tol` (m) of an edge counts as in.
-std::int64_t locateOnSmoothSurface(const TriangleMesh& mesh, const TriangleNormals& faces, const EdgeTable& edges,
+/// lies farthest beyond, over smooth edges only (SmoothNeighbours); -1 if the walk meets a feature
+/// edge or goes on for 64 triangles (then p counts as off the surface). Within `tol` (m) of an
+/// edge counts as in.
+std::int64_t locateOnSmoothSurface(const TriangleMesh& mesh, const TriangleNormals& faces, SmoothNeighbours& neighbours,
                                    std::size_t from, const Vec3d& p, double tol)
 {
-  const double crease = std::cos(30.0 * M_PI / 180.0);
   std::size_t t = from;
   for (int walk = 0; walk < 64; ++walk)
   {
@@ -645,11 +677,9 @@ std::int64_t locateOnSmoothSurface(const TriangleMesh& mesh, const TriangleNorma
       }
     }
     if (worst < 0) return std::int64_t(t);
-    const auto& along = edges.trianglesAlong(mesh.triangles[t][worst], mesh.triangles[t][(worst + 1) % 3]);
-    if (along.size() != 2) return -1;
-    const std::size_t next = along[0] == t ? along[1] : along[0];
-    if (!faces.valid[next] || faces.normal[next].dot(faces.normal[t]) < crease) return -1;
-    t = next;
+    const std::int64_t next = neighbours.across(t, worst);
+    if (next < 0) return -1;
+    t = std::size_t(next);
   }
   return -1;
 }
@@ -745,7 +775,16 @@ void relaxFreeSamples(const TriangleMesh& mesh, const TriangleNormals& faces, co
   const double tol = 1e-6 * s;                       // m, on a triangle's border counts as in it
   const double min_dist2 = (0.66 * s) * (0.66 * s);  // m^2, as SampleSet keeps them
   std::vector<Vec3d> move(movable.size());
-  std::vector<char> clear(movable.size());  // the move cannot bring the sample within 0.66 s of another
+  SmoothNeighbours neighbours(mesh, faces, edges);
+  // Per movable sample, the samples within crowd_reach of it at a round's start (up to kMaxClose;
+  // num_close_to > kMaxClose: more).
+  constexpr int kMaxClose = 12;
+  // A move and its projection onto the triangle it lands on stay within 2 max_move of the start,
+  // another sample within max_move of its start: 0.66 s + 3 max_move bounds every pair that can
+  // come within 0.66 s in a round.
+  const double crowd_reach = 0.66 * s + 3 * max_move;  // m
+  std::vector<std::uint32_t> close_to(movable.size() * kMaxClose);
+  std::vector<int> num_close_to(movable.size());
   for (int round = 0; round < kMaxRounds; ++round)
   {
     const SortedGrid grid(samples, reach);
@@ -754,12 +793,19 @@ void relaxFreeSamples(const TriangleMesh& mesh, const TriangleNormals& faces, co
       const Vec3d& p = samples.point(k);
       const Vec3d& n = faces.normal[std::size_t(triangle[m])];
       Vec3d push = Vec3d::Zero();  // Eq. A32
-      double nearest = reach;      // m, to the nearest other sample within reach
+      std::uint32_t* close = &close_to[m * kMaxClose];
+      int num_close = 0;
       grid.forNear(p, [&](std::uint32_t q) {
         if (q == k) return;
         const Vec3d d = p - samples.point(q);
         const double r = d.norm();
-        nearest = std::min(nearest, r);
+        if (r < crowd_reach)
+        {
+          if (num_close < kMaxClose)
+            close[num_close++] = q;
+          else
+            num_close = kMaxClose + 1;  // too many to list: crowded() searches the grid
+        }
         // Samples across a crease (more than 30 degrees out of the tangent plane: a wall meeting
         // this floor) do not push: the edge samples between them stand for that side.
         if (r < reach && r > 0.0 && std::abs(d.dot(n)) <= 0.5 * r) push += (1.0 - r / reach) / r * d;
@@ -769,19 +815,23 @@ void relaxFreeSamples(const TriangleMesh& mesh, const TriangleNormals& faces, co
       const double length = d.norm();
       if (length > max_move) d *= max_move / length;
       move[m] = d;
-      // Every other sample moves at most max_move this round: if the nearest one is farther than
-      // 0.66 s plus both moves, this move cannot crowd it.
-      clear[m] = nearest >= std::sqrt(min_dist2) + std::min(length, max_move) + max_move;
+      num_close_to[m] = num_close;
       return std::min(length, max_move);
     });
     if (longest < settled) break;
-    // A sample is at most 0.1 s from where the grid put it, so the cells around q hold every
-    // sample within 0.66 s of it.
-    const auto crowded = [&](std::size_t k, const Vec3d& q) {
+    // Only the samples within crowd_reach of a sample at the round's start can come within 0.66 s
+    // of it: those listed above, or, where more than kMaxClose were, those in the grid's cells
+    // around it (a sample is at most 0.1 s from where the grid put it).
+    const auto crowded = [&](std::size_t m, const Vec3d& q) {
+      const std::size_t k = movable[m];
       bool near = false;
-      grid.forNear(q, [&](std::uint32_t other) {
+      const auto check = [&](std::uint32_t other) {
         near = near || (other != k && (samples.point(other) - q).squaredNorm() < min_dist2);
-      });
+      };
+      if (num_close_to[m] > kMaxClose)
+        grid.forNear(q, check);
+      else
+        std::for_each(&close_to[m * kMaxClose], &close_to[m * kMaxClose] + num_close_to[m], check);
       return near;
     };
     double moved = 0.0;  // m, the longest move made this round
@@ -792,11 +842,11 @@ void relaxFreeSamples(const TriangleMesh& mesh, const TriangleNormals& faces, co
       for (int halving = 0; halving < 4; ++halving, d *= 0.5)
       {
         const Vec3d p = samples.point(k) + d;
-        const std::int64_t t = locateOnSmoothSurface(mesh, faces, edges, std::size_t(triangle[m]), p, tol);
+        const std::int64_t t = locateOnSmoothSurface(mesh, faces, neighbours, std::size_t(triangle[m]), p, tol);
         if (t < 0) continue;
         const Vec3d& n = faces.normal[std::size_t(t)];
         const Vec3d q = p - (p - mesh.vertices[mesh.triangles[std::size_t(t)][0]]).dot(n) * n;
-        if (!clear[m] && crowded(k, q)) continue;
+        if (crowded(m, q)) continue;
         samples.moveTo(k, q, n);
         triangle[m] = t;
         moved = std::max(moved, d.norm());
