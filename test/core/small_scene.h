@@ -3,6 +3,7 @@
 // no boundaries. Tests change one value and check what the core makes of it.
 #include <cmath>
 #include <string>
+#include <vector>
 
 #include "fluid_sim/core/scene_config.h"
 #include "fluid_sim/core/simulation.h"
@@ -79,6 +80,47 @@ inline TriangleMesh cylinderMesh(int facets, double r, double h, bool closed = t
     m.triangles.push_back({0, b0, a0});
     if (closed) m.triangles.push_back({1, a1, b1});
   }
+  return m;
+}
+
+/// A closed mesh bowl: a hemisphere of radius r (lowest point at the origin) with `around` x
+/// `down` facets, a cylindrical wall from its rim up to z = h, and a flat lid; normals out.
+inline TriangleMesh bowlMesh(double r, double h, int around, int down)
+{
+  TriangleMesh m;
+  m.vertices.push_back(Vec3d(0, 0, 0));
+  std::vector<std::vector<int>> rings;
+  for (int j = 1; j <= down; ++j)
+  {
+    const double polar = 0.5 * M_PI * j / down;
+    rings.emplace_back();
+    for (int k = 0; k < around; ++k)
+    {
+      const double a = 2.0 * M_PI * k / around;
+      rings.back().push_back(int(m.vertices.size()));
+      m.vertices.push_back(
+          Vec3d(r * std::sin(polar) * std::cos(a), r * std::sin(polar) * std::sin(a), r - r * std::cos(polar)));
+    }
+  }
+  rings.emplace_back();
+  for (int k = 0; k < around; ++k)
+  {
+    const double a = 2.0 * M_PI * k / around;
+    rings.back().push_back(int(m.vertices.size()));
+    m.vertices.push_back(Vec3d(r * std::cos(a), r * std::sin(a), h));
+  }
+  const int lid = int(m.vertices.size());
+  m.vertices.push_back(Vec3d(0, 0, h));
+  for (int k = 0; k < around; ++k) m.triangles.push_back({0, rings[0][(k + 1) % around], rings[0][k]});
+  for (std::size_t j = 0; j + 1 < rings.size(); ++j)
+    for (int k = 0; k < around; ++k)
+    {
+      const auto& a = rings[j];
+      const auto& b = rings[j + 1];
+      m.triangles.push_back({a[k], a[(k + 1) % around], b[(k + 1) % around]});
+      m.triangles.push_back({a[k], b[(k + 1) % around], b[k]});
+    }
+  for (int k = 0; k < around; ++k) m.triangles.push_back({lid, rings.back()[k], rings.back()[(k + 1) % around]});
   return m;
 }
 

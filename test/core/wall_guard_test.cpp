@@ -209,6 +209,46 @@ TEST(WallGuard, KeepsWaterInACurvedMeshContainerUnderASidewaysLoad)
   EXPECT_GT(guarded, 0u);
 }
 
+TEST(CurvedMeshContainer, ABowlUnderASidewaysLoadKeepsItsWaterWithoutTheGuard)
+{
+  // Water (10 x 10 x 6 cm at 1 cm) in a closed hemispherical mesh bowl (r 10 cm, 48 x 16 facets,
+  // walls up to 20 cm) under gravity tilted by 2 m/s^2, 3 s, no wall guard. Before the sampler
+  // evened out the samples its fill leaves on curved surfaces and beside ragged lattice borders
+  // (Eq. A32) the water went through the bowl: 21 (MLS), 31 (SPH) and 296 (mirroring) of 596
+  // particles; now 0, 0 and 1.
+  for (const auto method :
+       {BoundaryPressureMethod::Mls, BoundaryPressureMethod::SphExtrapolation, BoundaryPressureMethod::Mirroring})
+  {
+    SceneConfig s;
+    s.spacing = 0.01;
+    s.gravity = Vec3d(2.0, 0.0, -9.81);
+    s.domain = {Vec3d(-0.2, -0.2, -0.1), Vec3d(0.2, 0.2, 0.3)};
+    s.time_step.adaptive = true;
+    s.viscosity.model = ViscosityModel::Xsph;
+    s.viscosity.coefficient = 0.01;
+    s.solver.boundary_pressure = method;
+    BoundaryConfig bowl;
+    bowl.name = "bowl";
+    bowl.type = ShapeType::Mesh;
+    bowl.mesh = test::bowlMesh(0.1, 0.2, 48, 16);
+    bowl.mesh_closed = true;
+    bowl.inside = true;
+    s.boundaries.push_back(bowl);
+    FluidBlockConfig f;
+    f.box = {Vec3d(-0.05, -0.05, 0.02), Vec3d(0.05, 0.05, 0.08)};
+    s.fluid.push_back(f);
+    Simulation sim(s);
+    while (sim.time() < 3.0 - 1e-9)
+    {
+      const StepReport r = sim.step(3.0 - sim.time());
+      ASSERT_FALSE(r.unstable) << r.reason;
+    }
+    const std::size_t lost = sim.initialFluidParticles() - sim.numFluidParticles();
+    std::printf("bowl, method %d: %zu of %zu particles lost in 3 s\n", int(method), lost, sim.initialFluidParticles());
+    EXPECT_LE(lost, sim.initialFluidParticles() / 100) << "method " << int(method);
+  }
+}
+
 TEST(WallGuard, TheFillsRelaxationKeepsWaterOffAThinShell)
 {
   // The block in an open 32-facet cup (a shell sampled on its surface, no inside), under gravity
