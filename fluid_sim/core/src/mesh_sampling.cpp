@@ -728,19 +728,20 @@ private:
 /// along its lattice (a polygon approximating a circle, a slanted border) and on curved surfaces.
 /// There the fill puts samples wherever a gap is wider than 0.66 s, so the layer has holes up to
 /// about 1.3 s wide beside clusters of samples 0.66 s apart, and the fluid feels a weaker wall over
-/// the holes: over the floor of a 32-facet mesh cylinder (r 8 s), half a spacing above its surface,
-/// the part of a kernel its samples fill (sum_b V_b W, Eq. A31) was 0.44-0.50 in the ring next to
-/// the rim, against 0.487-0.491 over its lattice and over the exact cylinder's concentric rings, and
-/// water under a sideways load was pressed through there. Here the fill's samples and the lattice
-/// nodes within 3 nodes of a node missing from their lattice move as a soft-sphere gas on the
-/// surface: each is pushed by every sample within 1.5 s and within 30 degrees of its tangent plane
-/// (Eq. A32, docs/method.md), in that plane, moves gain times the push (at most 0.1 s) along it, and stays on the
-/// triangles reached over smooth edges (never across a feature edge); a move that would bring it within 0.66 s of
-/// another sample (the passes' smallest distance) or off the surface is halved, up to four times, then dropped. Edge
-/// samples and the lattices' interiors stay, so the gas spreads into the holes between them; no sample is added or
-/// removed. Until the largest move is below 0.005 s, at most 80 times. A mesh whose patches hold whole lattices (boxes,
-/// an L-shaped tank) has nothing to move and is sampled bit for bit as before. The pushes come from the positions at
-/// the start of a round (in parallel), the moves are made in sample order: the result depends on nothing else.
+/// the holes: half a spacing above the floor of a 32-facet mesh cylinder (r 8 s) the part of a
+/// kernel its samples fill (sum_b V_b W, Eq. A31) was 0.887-1.065 of a flat layer's, lowest in the
+/// ring next to the rim, and water under a sideways load was pressed through there (after this
+/// pass: 0.97-1.02). The fill's samples and the lattice nodes within 3 nodes of a node missing from
+/// their lattice move as a soft-sphere gas on the surface (Eq. A32, docs/method.md): each is pushed
+/// by every sample within 1.5 s and within 30 degrees of its tangent plane, moves 0.2 s times the
+/// push (at most 0.1 s) in that plane, and stays on the triangles reached over smooth edges (never
+/// across a feature edge); a move that would bring it within 0.66 s of another sample (the passes'
+/// smallest distance) or off the surface is halved, up to four times, then dropped. Edge samples
+/// and the lattices' interiors stay, so the gas spreads into the holes between them; no sample is
+/// added or removed. Until no move is longer than 0.005 s, at most 40 rounds. A mesh whose patches
+/// hold whole lattices (boxes, an L-shaped tank) has nothing to move and is sampled bit for bit as
+/// before. The pushes come from the positions at the start of a round (in parallel), the moves are
+/// made in sample order: the result depends on nothing else.
 void relaxFreeSamples(const TriangleMesh& mesh, const TriangleNormals& faces, const EdgeTable& edges,
                       const PlanarPatches& patches, const std::vector<Lattice>& lattices, double s, SampleSet& samples)
 {
