@@ -819,7 +819,7 @@ void relaxFreeSamples(const TriangleMesh& mesh, const TriangleNormals& faces, co
       num_close_to[m] = num_close;
       return std::min(length, max_move);
     });
-    if (longest < settled) break;
+    if (longest < settled) break;  // then no move would exceed `settled` either (moved <= proposed)
     // Only the samples within crowd_reach of a sample at the round's start can come within 0.66 s
     // of it: those listed above, or, where more than kMaxClose were, those in the grid's cells
     // around it (a sample is at most 0.1 s from where the grid put it).
