@@ -17,7 +17,7 @@ Cases: 1 Table 1 of the paper (cylinder dam break, time step sweep), 2 rotating 
 6 largest stable time step on hard cases (bisection), 7 Archimedes on a fixed submerged cube
 (--extra-runner LABEL=PATH adds other builds of the runner to case 7), 8 free bodies (floating
 drafts, heave decay, a pushed box, a ball in the washing machine), 9 pouring (a tap fills a cup
-that tips into a second cup). Needs numpy and matplotlib (Debian's
+that tips into a second cup), 10 sloshing (the first mode against linear theory). Needs numpy and matplotlib (Debian's
 python3-numpy, python3-matplotlib); no network.
 """
 import argparse
@@ -63,6 +63,9 @@ KNOWN = {
                            "draft reads 0.942-0.960 of Archimedes' from starts 1e-7 m apart (16 runs of 4 s, mean "
                            "0.950); MLS holds the flat box 1-2 mm high at this spacing and the deficit closes with "
                            "it (0.97-0.98 at 1.5 cm, 0.99 at 1 cm) (docs/method_notes.md, Free bodies)",
+    (10, "small amplitude"): "the smaller the motion, the faster every method sloshes (MLS +6.5, +4.9, +1.5 % at "
+                             "tilts 1/40, 1/20, 1/10; as fast at 5 mm as at 1 cm): settled particles resist a "
+                             "small shear as a soft solid does (docs/method_notes.md, Sloshing)",
 }
 G = 9.81
 
@@ -1750,6 +1753,171 @@ def case9(S):
     return {"md": "\n".join(md)}
 
 
+def slosh_theory(length, depth):
+    """Linear theory's first sloshing mode (Hz): omega^2 = g k tanh(k h), k = pi / L."""
+    k = math.pi / length
+    return math.sqrt(G * k * math.tanh(k * depth)) / (2 * math.pi)
+
+
+def damped_fit(t, y, f_guess):
+    """Fits y = e^(-lam t) (a cos 2 pi f t + b sin 2 pi f t) + c: f (Hz) and lam (1/s) by a grid
+    search refined twice, the rest by linear least squares. Returns f, lam, amplitude at t[0]."""
+    best = None
+    f_lo, f_hi, l_lo, l_hi = 0.7 * f_guess, 1.3 * f_guess, 0.0, 4.0
+    for _ in range(3):
+        fs = np.linspace(f_lo, f_hi, 121)
+        ls = np.linspace(l_lo, l_hi, 81)
+        for f in fs:
+            c, s = np.cos(2 * np.pi * f * t), np.sin(2 * np.pi * f * t)
+            env = np.exp(-np.outer(ls, t))  # (lam, t)
+            basis = np.stack([env * c, env * s, np.ones_like(env)], axis=2)  # (lam, t, 3)
+            ata = np.einsum("ltk,ltm->lkm", basis, basis)
+            aty = np.einsum("ltk,t->lk", basis, y)
+            coef = np.linalg.solve(ata + 1e-12 * np.eye(3), aty[..., None])[..., 0]
+            res = np.sum((np.einsum("ltk,lk->lt", basis, coef) - y) ** 2, axis=1)
+            k = int(np.argmin(res))
+            if best is None or res[k] < best[0]:
+                best = (res[k], f, ls[k], math.hypot(coef[k, 0], coef[k, 1]))
+        df, dl = (f_hi - f_lo) / 120, (l_hi - l_lo) / 80
+        f_lo, f_hi = best[1] - 2 * df, best[1] + 2 * df
+        l_lo, l_hi = max(0.0, best[2] - 2 * dl), best[2] + 2 * dl
+    return best[1], best[2], best[3]
+
+
+def zero_cross_frequency(t, y, count=8):
+    """Hz from the first `count` sign changes of y - mean (linear interpolation between samples)."""
+    y = y - np.mean(y)
+    zc = [t[i] - y[i] * (t[i + 1] - t[i]) / (y[i + 1] - y[i]) for i in range(len(y) - 1) if y[i] * y[i + 1] < 0]
+    zc = zc[:count]
+    return (len(zc) - 1) / (2 * (zc[-1] - zc[0])) if len(zc) >= 3 else float("nan")
+
+
+SLOSH_L, SLOSH_H = 0.4, 0.12  # m: the channel's length and the water's depth (config/validation/sloshing.yaml)
+
+
+def slosh_release_scene(S, settle, key):
+    """The sloshing scene with the settled state as its water: a scene file in the run folder."""
+    frames = settle.frames()
+    text = open(os.path.join(SCENES, "sloshing.yaml")).read()
+    line = "  - box: {min: [0, 0, 0], max: [0.4, 0.05, 0.12]}"
+    if line not in text:
+        raise RuntimeError("config/validation/sloshing.yaml: its fluid block is not the one case 10 expects")
+    scene = os.path.join(S.work, key + ".yaml")
+    os.makedirs(os.path.dirname(scene), exist_ok=True)
+    with open(scene, "w") as f:
+        f.write(text.replace(line, "  - particles: {file: %s}" % frames[-1]))
+    return scene
+
+
+def case10(S):
+    q = S.quick
+    f0 = slosh_theory(SLOSH_L, SLOSH_H)
+    # Tilts (tan of the settling gravity's angle): the surface starts L/2 * tilt off at the walls.
+    tilts = [0.1] if q else [0.025, 0.05, 0.1]
+    methods = ["mirroring", "mls"] if q else METHODS
+    # (label, settle method, release method, tilt, spacing)
+    cases = [(m, m, m, tl, 0.01) for m in methods for tl in tilts]
+    if not q:
+        cases.append(("mls at 5 mm", "mls", "mls", 0.05, 0.005))
+    release_s = 5.0
+
+    def settle_key(sm, tl, sp):
+        return "case10/settle_%s_t%g_s%g" % (sm, tl, sp)
+
+    def one(label, sm, rm, tl, sp):
+        ang = math.atan(tl)
+        grav = "[%.6f,0,%.6f]" % (G * math.sin(ang), -G * math.cos(ang))
+        settle = S.run(settle_key(sm, tl, sp), "sloshing.yaml",
+                       {"solver.boundary_pressure": sm, "gravity": grav, "spacing": sp})
+        if not settle.ok or not settle.frames():
+            return label, settle, None
+        key = "case10/release_%s_from_%s_t%g_s%g" % (rm, sm, tl, sp)
+        scene = slosh_release_scene(S, settle, key + "_scene")
+        run = S.run(key, scene, {"solver.boundary_pressure": rm, "gravity": "[0,0,-9.81]", "spacing": sp,
+                                 "viscosity.model": "none", "output.frame_interval": 0.01}, release_s)
+        # The water's centre of mass along the channel at every frame (the tank's force, -M x'', is
+        # as good in principle but carries the pressure's noise), written beside the run; the frames
+        # themselves (2,400-19,200 particles x 500) are not kept.
+        com = os.path.join(run.out, "center_of_mass_x.csv")
+        if run.ok and run.frames():
+            with open(com, "w") as f:
+                f.write("t,x\n")
+                for path in run.frames():
+                    f.write("%.4f,%.9f\n" % (run.frame_time(path), float(np.mean(read_ply(path)[:, 0]))))
+                    os.remove(path)
+        return label, settle, run
+
+    futures = [S.pool.submit(one, *c) for c in cases]
+    results = [f.result() for f in futures]
+    rows, series = [], {}
+    for (label, sm, rm, tl, sp), (_, settle, run) in zip(cases, results):
+        status = settle.status if run is None else run.status
+        cm = read_rows(run, "center_of_mass_x.csv") if run is not None else []
+        if run is None or not run.ok or len(cm) < 50:
+            rows.append([label, sm, rm, tl, sp, status] + [float("nan")] * 5)
+            continue
+        t = np.array([float(r["t"]) for r in cm])
+        x = np.array([float(r["x"]) for r in cm])
+        f, lam, amp = damped_fit(t, x, f0)
+        fz = zero_cross_frequency(t, x)
+        series[(label, tl)] = (t, 1000 * (x - np.mean(x)))
+        rows.append([label, sm, rm, tl, sp, status, f, f / f0 - 1, fz / f0 - 1, lam, amp])
+    S.write_csv("case10_sloshing.csv", ["case", "settled_with", "released_with", "tilt", "spacing_m", "status",
+                                        "frequency_hz", "fit_error", "zero_crossing_error", "decay_per_s",
+                                        "amplitude_m"], rows)
+    fig, ax = plt.subplots(1, len(tilts), figsize=(4.6 * len(tilts), 3.6), squeeze=False)
+    for i, tl in enumerate(tilts):
+        a = ax[0][i]
+        for (label, tt), (t, fx) in series.items():
+            if tt == tl and label in METHODS:
+                a.plot(t, fx, label=label, color=COLORS.get(label))
+        tt = np.linspace(0, release_s, 600)
+        a.plot(tt, np.zeros_like(tt), color="0.6", lw=0.5)
+        for k in range(int(2 * release_s * f0) + 1):  # theory's zero crossings, for the eye
+            a.axvline((0.5 * k + 0.25) / f0, color="0.85", lw=0.5)
+        a.set_xlabel("t (s)")
+        a.set_ylabel("centre of mass x - mean (mm)")
+        a.set_title("tilt 1/%g" % (1 / tl))
+        a.legend(fontsize=7)
+    S.savefig(fig, "case10_sloshing.png")
+    for r in rows:
+        label, sm, rm, tl, sp, status = r[:6]
+        name = "sloshing, %s, tilt 1/%g" % (label, 1 / tl)
+        S.check(10, name + ": stable", status == "ok", status)
+        if status != "ok":
+            continue
+        err = r[7]
+        known = KNOWN.get((10, "small amplitude")) if tl < 0.1 else None
+        S.check(10, name + ": first mode within 3 % of linear theory", abs(err) <= 0.03,
+                "%.4f Hz, %+.1f %% (zero crossings %+.1f %%)" % (r[6], 100 * err, 100 * r[8]), known=known)
+    md = ["## 10. Sloshing\n"]
+    md.append("The first sloshing mode of water 0.12 m deep in a channel 0.4 m long and 5 cm wide at 1 cm "
+              "(`config/validation/sloshing.yaml`, 2,400 particles; CFL time step up to 2 ms, tolerances 0.1 %%). "
+              "The water settles for 3 s under a gravity tilted by 1/40, 1/20 or 1/10 (its surface then starts "
+              "2.5, 5 or 10 mm below and above rest at the end walls) with XSPH 0.1, and is released from that "
+              "state under upright gravity without viscosity for %g s. The frequency is fitted to the water's "
+              "centre of mass along the channel (PLY frames every 10 ms) as a damped cosine; linear theory gives "
+              "f = sqrt(g k tanh(k h)) / 2 pi = %.4f Hz (k = pi / L). The bound, 3 %%, is checked at the largest "
+              "motion; at the smaller ones a miss is the known problem below.\n" % (release_s, f0))
+    md.append(md_table(["case", "tilt", "spacing", "status", "frequency", "error", "error (zero crossings)",
+                        "decay", "amplitude"],
+                       [[r[0], "1/%g" % (1 / r[3]), "%g mm" % (1000 * r[4]), r[5], "%s Hz" % f3(r[6], 4),
+                         "%+.1f %%" % (100 * r[7]) if r[7] == r[7] else "nan",
+                         "%+.1f %%" % (100 * r[8]) if r[8] == r[8] else "nan", "%s /s" % f3(r[9], 2),
+                         "%s mm" % f3(1000 * r[10], 3)] for r in rows]))
+    md.append("\n![sloshing](%s)\n" % S.rel("case10_sloshing.png"))
+    md.append("CSV: [case10_sloshing.csv](%s).\n" % S.rel("case10_sloshing.csv"))
+    md.append("**What the error depends on: the size of the motion.** Every method sloshes faster the smaller "
+              "the motion, and MLS as fast at 5 mm as at 1 cm at the same tilt: the error follows the motion's "
+              "strain (k times the surface's amplitude: 0.04, 0.08 and 0.16 at the three tilts), not the "
+              "spacing, and it is not a linear error of the wall pressure, which would not depend on the "
+              "amplitude. Settled particles resist a small shear as a soft solid does, held in place by their "
+              "neighbours' pressure until the motion moves them past each other; until then the water springs "
+              "back faster than a liquid. Single-term mirroring damps the motion within a few periods (its wall "
+              "dissipates), which hides part of it. Known problem (docs/method_notes.md, Sloshing).\n")
+    return {"md": "\n".join(md)}
+
+
 # ----------------------------------------------------------------------------------------------
 # Report
 # ----------------------------------------------------------------------------------------------
@@ -1793,7 +1961,7 @@ def extra_runner(text):
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--quick", action="store_true", help="the small CI versions of the cases")
-    ap.add_argument("--case", type=int, action="append", choices=range(1, 10), help="run only this case (repeatable)")
+    ap.add_argument("--case", type=int, action="append", choices=range(1, 11), help="run only this case (repeatable)")
     ap.add_argument("--runner", default=os.path.join(ROOT, "build", "fluid_sim_run"))
     ap.add_argument("--jobs", type=int, default=os.cpu_count() or 1, help="runs at a time")
     ap.add_argument("--threads", type=int, default=1, help="threads per run")
@@ -1823,7 +1991,7 @@ def main():
         return 2
     # Runs are limited to --jobs at a time by a semaphore; the pool itself is larger because the
     # bisections of case 6 start their trial runs from pool threads.
-    cases = sorted(set(opts.case or range(1, 10)))
+    cases = sorted(set(opts.case or range(1, 11)))
     S = Suite(opts)
     S.pool = concurrent.futures.ThreadPoolExecutor(max_workers=opts.jobs + 16)
     run_sem = threading.Semaphore(opts.jobs)
@@ -1834,7 +2002,7 @@ def main():
             return inner(*a, **k)
     S._run_raw = limited
     S._run = S._run_once
-    funcs = {1: case1, 2: case2, 3: case3, 4: case4, 5: case5, 6: case6, 7: case7, 8: case8, 9: case9}
+    funcs = {1: case1, 2: case2, 3: case3, 4: case4, 5: case5, 6: case6, 7: case7, 8: case8, 9: case9, 10: case10}
     t0 = time.time()
     results = {}
     for c in cases:
@@ -1860,7 +2028,7 @@ def main():
     if os.path.exists(intro) and not opts.quick:
         parts.append(open(intro).read())
     all_checks = []
-    for c in range(1, 10):
+    for c in range(1, 11):
         p = os.path.join(S.outdir, "case%d_checks.json" % c)
         if os.path.exists(p):
             all_checks += json.load(open(p))
@@ -1869,7 +2037,7 @@ def main():
     parts.append(md_table(["case", "check", "result", "measured"],
                           [[c[0], c[1], "pass" if c[2] else ("known failure: " + c[4] if c[4] else "**FAIL**"),
                             c[3]] for c in all_checks]))
-    for c in range(1, 10):
+    for c in range(1, 11):
         p = os.path.join(S.outdir, "case%d.md" % c)
         if os.path.exists(p):
             parts.append(open(p).read())
