@@ -17,8 +17,8 @@ Cases: 1 Table 1 of the paper (cylinder dam break, time step sweep), 2 rotating 
 6 largest stable time step on hard cases (bisection), 7 Archimedes on a fixed submerged cube
 (--extra-runner LABEL=PATH adds other builds of the runner to case 7), 8 free bodies (floating
 drafts, heave decay, a pushed box, a ball in the washing machine), 9 pouring (a tap fills a cup
-that tips into a second cup), 10 sloshing (the first mode against linear theory). Needs numpy and matplotlib (Debian's
-python3-numpy, python3-matplotlib); no network.
+that tips into a second cup), 10 sloshing (the first mode against linear theory at three
+amplitudes). Needs numpy and matplotlib (Debian's python3-numpy, python3-matplotlib); no network.
 """
 import argparse
 import concurrent.futures
@@ -1868,9 +1868,9 @@ def case10(S):
     fig, ax = plt.subplots(1, len(tilts), figsize=(4.6 * len(tilts), 3.6), squeeze=False)
     for i, tl in enumerate(tilts):
         a = ax[0][i]
-        for (label, tt), (t, fx) in series.items():
+        for (label, tt), (t, y) in series.items():
             if tt == tl and label in METHODS:
-                a.plot(t, fx, label=label, color=COLORS.get(label))
+                a.plot(t, y, label=label, color=COLORS.get(label))
         tt = np.linspace(0, release_s, 600)
         a.plot(tt, np.zeros_like(tt), color="0.6", lw=0.5)
         for k in range(int(2 * release_s * f0) + 1):  # theory's zero crossings, for the eye
