@@ -66,6 +66,9 @@ KNOWN = {
     (10, "small amplitude"): "the smaller the motion, the faster every method sloshes (MLS +6.5, +4.9, +1.5 % at "
                              "tilts 1/40, 1/20, 1/10; as fast at 5 mm as at 1 cm): settled particles resist a "
                              "small shear as a soft solid does (docs/method_notes.md, Sloshing)",
+    (10, "levelling"): "a yield stress: settled particles held in place by their neighbours' pressure resist a "
+                       "small shear, so MLS and SPH keep a slope of a few 1/1000 for as long as they are left; "
+                       "single-term mirroring creeps towards level (docs/method_notes.md, Sloshing)",
 }
 G = 9.81
 
@@ -1824,20 +1827,26 @@ def case10(S):
     def settle_key(sm, tl, sp):
         return "case10/settle_%s_t%g_s%g" % (sm, tl, sp)
 
-    def one(label, sm, rm, tl, sp):
+    def release(sm, rm, tl, sp, damped=False):
+        """Settles under the tilted gravity, releases upright; returns (settle, release or None) and
+        writes the release's centre of mass along the channel, center_of_mass_x.csv."""
         ang = math.atan(tl)
         grav = "[%.6f,0,%.6f]" % (G * math.sin(ang), -G * math.cos(ang))
         settle = S.run(settle_key(sm, tl, sp), "sloshing.yaml",
                        {"solver.boundary_pressure": sm, "gravity": grav, "spacing": sp})
         if not settle.ok or not settle.frames():
-            return label, settle, None
-        key = "case10/release_%s_from_%s_t%g_s%g" % (rm, sm, tl, sp)
+            return settle, None
+        key = "case10/release_%s_from_%s_t%g_s%g%s" % (rm, sm, tl, sp, "_damped" if damped else "")
         scene = slosh_release_scene(S, settle, key + "_scene")
-        run = S.run(key, scene, {"solver.boundary_pressure": rm, "gravity": "[0,0,-9.81]", "spacing": sp,
-                                 "viscosity.model": "none", "output.frame_interval": 0.01}, release_s)
+        sets = {"solver.boundary_pressure": rm, "gravity": "[0,0,-9.81]", "spacing": sp, "output.frame_interval": 0.01}
+        if damped:
+            sets.update({"viscosity.coefficient": 0.3, "viscosity.boundary": 0.3})
+        else:
+            sets["viscosity.model"] = "none"
+        run = S.run(key, scene, sets, level_s if damped else release_s)
         # The water's centre of mass along the channel at every frame (the tank's force, -M x'', is
         # as good in principle but carries the pressure's noise), written beside the run; the frames
-        # themselves (2,400-19,200 particles x 500) are not kept.
+        # themselves (2,400-19,200 particles x 500-800) are not kept.
         com = os.path.join(run.out, "center_of_mass_x.csv")
         if run.ok and run.frames():
             with open(com, "w") as f:
@@ -1845,8 +1854,18 @@ def case10(S):
                 for path in run.frames():
                     f.write("%.4f,%.9f\n" % (run.frame_time(path), float(np.mean(read_ply(path)[:, 0]))))
                     os.remove(path)
-        return label, settle, run
+        return settle, run
 
+    def one(label, sm, rm, tl, sp):
+        return (label,) + release(sm, rm, tl, sp)
+
+    # Levelling (full version): released from +-1/20 with XSPH 0.3 instead of without viscosity, a
+    # liquid comes to rest level; what it holds instead is half the distance between the two
+    # releases' centres of mass (the particles each start drops, if any, cancel between them).
+    level_s = 8.0
+    level_methods = [] if q else METHODS
+    level_futures = {(m, sign): S.pool.submit(release, m, m, sign * 0.05, 0.01, True)
+                     for m in level_methods for sign in (1, -1)}
     futures = [S.pool.submit(one, *c) for c in cases]
     results = [f.result() for f in futures]
     rows, series = [], {}
@@ -1865,7 +1884,37 @@ def case10(S):
     S.write_csv("case10_sloshing.csv", ["case", "settled_with", "released_with", "tilt", "spacing_m", "status",
                                         "frequency_hz", "fit_error", "zero_crossing_error", "decay_per_s",
                                         "amplitude_m"], rows)
-    fig, ax = plt.subplots(1, len(tilts), figsize=(4.6 * len(tilts), 3.6), squeeze=False)
+    # Levelling: the slope held, from the two damped releases' centres of mass over the last 0.5 s
+    # (a surface of slope a moves the centre of mass by a L^2 / (12 h) along the channel).
+    level_rows, level_series = [], {}
+    for m in level_methods:
+        (_, up), (_, down) = level_futures[(m, 1)].result(), level_futures[(m, -1)].result()
+        status = "ok" if up is not None and down is not None and up.ok and down.ok else "failed"
+        cu = read_rows(up, "center_of_mass_x.csv") if up is not None else []
+        cd = read_rows(down, "center_of_mass_x.csv") if down is not None else []
+        if status != "ok" or len(cu) != len(cd) or len(cu) < 50:
+            level_rows.append([m, status if status != "ok" else "no frames", float("nan"), float("nan")])
+            continue
+        t = np.array([float(r["t"]) for r in cu])
+        half = 0.5 * (np.array([float(r["x"]) for r in cu]) - np.array([float(r["x"]) for r in cd]))
+        level_series[m] = (t, half)
+        held = float(np.mean(half[t >= level_s - 0.5]))
+        level_rows.append([m, status, held, held * 12 * SLOSH_H / SLOSH_L ** 2])
+    if level_rows:
+        S.write_csv("case10_levelling.csv", ["method", "status", "held_center_of_mass_offset_m", "held_slope"],
+                    level_rows)
+    panels = len(tilts) + (1 if level_series else 0)
+    fig, ax = plt.subplots(1, panels, figsize=(4.6 * panels, 3.6), squeeze=False)
+    if level_series:
+        a = ax[0][-1]
+        for m, (t, half) in level_series.items():
+            a.plot(t, 1000 * half, label=m, color=COLORS.get(m))
+        a.axhline(0, color="0.6", lw=0.5)
+        a.set_xlabel("t (s)")
+        a.set_ylabel("half the gap between +-1/20 (mm)")
+        a.set_title("levelling, XSPH 0.3")
+        a.set_yscale("symlog", linthresh=0.1)
+        a.legend(fontsize=7)
     for i, tl in enumerate(tilts):
         a = ax[0][i]
         for (label, tt), (t, y) in series.items():
@@ -1890,6 +1939,12 @@ def case10(S):
         known = KNOWN.get((10, "small amplitude")) if tl < 0.1 else None
         S.check(10, name + ": first mode within 3 % of linear theory", abs(err) <= 0.03,
                 "%.4f Hz, %+.1f %% (zero crossings %+.1f %%)" % (r[6], 100 * err, 100 * r[8]), known=known)
+    for r in level_rows:
+        S.check(10, "levelling, %s: stable" % r[0], r[1] == "ok", r[1])
+        if r[1] == "ok":
+            S.check(10, "levelling, %s: slope left after %g s below 1/1000" % (r[0], level_s), abs(r[3]) < 1e-3,
+                    "centre of mass %s mm off, slope 1/%.0f" % (f3(1000 * r[2], 3), 1 / max(abs(r[3]), 1e-12)),
+                    known=KNOWN.get((10, "levelling")))
     md = ["## 10. Sloshing\n"]
     md.append("The first sloshing mode of water 0.12 m deep in a channel 0.4 m long and 5 cm wide at 1 cm "
               "(`config/validation/sloshing.yaml`, 2,400 particles; CFL time step up to 2 ms, tolerances 0.1 %%). "
@@ -1907,6 +1962,17 @@ def case10(S):
                          "%s mm" % f3(1000 * r[10], 3)] for r in rows]))
     md.append("\n![sloshing](%s)\n" % S.rel("case10_sloshing.png"))
     md.append("CSV: [case10_sloshing.csv](%s).\n" % S.rel("case10_sloshing.csv"))
+    if level_rows:
+        md.append("**Levelling.** Released from tilts of +1/20 and -1/20 with XSPH 0.3 (wall 0.3) instead of "
+                  "without viscosity, for %g s: a liquid comes to rest level, so the two releases' centres of mass "
+                  "meet. Half their distance over the last 0.5 s is what the water holds, and a surface of slope a "
+                  "moves the centre of mass by a L^2 / (12 h) (the plot's fourth panel, in mm; the particles a "
+                  "start drops cancel between the two).\n" % level_s)
+        md.append(md_table(["method", "status", "centre of mass held off the middle", "slope held"],
+                           [[r[0], r[1], "%s mm" % f3(1000 * r[2], 3),
+                             "1/%.0f" % (1 / abs(r[3])) if r[3] == r[3] and r[3] != 0 else "nan"]
+                            for r in level_rows]))
+        md.append("\nCSV: [case10_levelling.csv](%s).\n" % S.rel("case10_levelling.csv"))
     md.append("**What the error depends on: the size of the motion.** Every method sloshes faster the smaller "
               "the motion, and MLS as fast at 5 mm as at 1 cm at the same tilt: the error follows the motion's "
               "strain (k times the surface's amplitude: 0.04, 0.08 and 0.16 at the three tilts), not the "
