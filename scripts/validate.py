@@ -64,8 +64,8 @@ KNOWN = {
                            "0.950); MLS holds the flat box 1-2 mm high at this spacing and the deficit closes with "
                            "it (0.97-0.98 at 1.5 cm, 0.99 at 1 cm) (docs/method_notes.md, Free bodies)",
     (10, "small amplitude"): "the smaller the motion, the faster every method sloshes (MLS +6.5, +4.9, +1.5 % at "
-                             "tilts 1/40, 1/20, 1/10; as fast at 5 mm as at 1 cm): settled particles resist a "
-                             "small shear as a soft solid does (docs/method_notes.md, Sloshing)",
+                             "tilts 1/40, 1/20, 1/10; no better at a 5 mm spacing than at 1 cm): settled particles "
+                             "resist a small shear as a soft solid does (docs/method_notes.md, Sloshing)",
     (10, "levelling"): "a yield stress: settled particles held in place by their neighbours' pressure resist a "
                        "small shear, so MLS and SPH keep a slope of a few 1/1000 for as long as they are left; "
                        "single-term mirroring creeps towards level (docs/method_notes.md, Sloshing)",
@@ -1974,7 +1974,7 @@ def case10(S):
                             for r in level_rows]))
         md.append("\nCSV: [case10_levelling.csv](%s).\n" % S.rel("case10_levelling.csv"))
     md.append("**What the error depends on: the size of the motion.** Every method sloshes faster the smaller "
-              "the motion, and MLS as fast at 5 mm as at 1 cm at the same tilt: the error follows the motion's "
+              "the motion, and MLS no better at a 5 mm spacing than at 1 cm at the same tilt: the error follows the motion's "
               "strain (k times the surface's amplitude: 0.04, 0.08 and 0.16 at the three tilts), not the "
               "spacing, and it is not a linear error of the wall pressure, which would not depend on the "
               "amplitude. Settled particles resist a small shear as a soft solid does, held in place by their "
