@@ -28,6 +28,7 @@ import json
 import math
 import os
 import platform
+import re
 import subprocess
 import sys
 import threading
@@ -1795,26 +1796,34 @@ def zero_cross_frequency(t, y, count=8):
     return (len(zc) - 1) / (2 * (zc[-1] - zc[0])) if len(zc) >= 3 else float("nan")
 
 
-SLOSH_L, SLOSH_H = 0.4, 0.12  # m: the channel's length and the water's depth (config/validation/sloshing.yaml)
+# The sloshing scene's water block, which case 10 replaces by the settled state: it starts at the
+# tank's corner and fills the tank's length, so its max gives the channel's length L and the depth h.
+SLOSH_BLOCK = re.compile(r"^  - box: \{min: \[0, 0, 0\], max: \[([0-9.]+), ([0-9.]+), ([0-9.]+)\]\}$", re.M)
+
+
+def slosh_scene():
+    """config/validation/sloshing.yaml's text, its channel length and its water depth (m)."""
+    text = open(os.path.join(SCENES, "sloshing.yaml")).read()
+    block = SLOSH_BLOCK.search(text)
+    if block is None:
+        raise RuntimeError("config/validation/sloshing.yaml: no water block 'box: {min: [0, 0, 0], max: [L, W, h]}'")
+    return text, float(block.group(1)), float(block.group(3))
 
 
 def slosh_release_scene(S, settle, key):
     """The sloshing scene with the settled state as its water: a scene file in the run folder."""
-    frames = settle.frames()
-    text = open(os.path.join(SCENES, "sloshing.yaml")).read()
-    line = "  - box: {min: [0, 0, 0], max: [0.4, 0.05, 0.12]}"
-    if line not in text:
-        raise RuntimeError("config/validation/sloshing.yaml: its fluid block is not the one case 10 expects")
+    text = slosh_scene()[0]
     scene = os.path.join(S.work, key + ".yaml")
     os.makedirs(os.path.dirname(scene), exist_ok=True)
     with open(scene, "w") as f:
-        f.write(text.replace(line, "  - particles: {file: %s}" % frames[-1]))
+        f.write(SLOSH_BLOCK.sub("  - particles: {file: %s}" % settle.frames()[-1], text))
     return scene
 
 
 def case10(S):
     q = S.quick
-    f0 = slosh_theory(SLOSH_L, SLOSH_H)
+    _, length, depth = slosh_scene()
+    f0 = slosh_theory(length, depth)
     # Tilts (tan of the settling gravity's angle): the surface starts L/2 * tilt off at the walls.
     tilts = [0.1] if q else [0.025, 0.05, 0.1]
     methods = ["mirroring", "mls"] if q else METHODS
@@ -1856,9 +1865,6 @@ def case10(S):
                     os.remove(path)
         return settle, run
 
-    def one(label, sm, rm, tl, sp):
-        return (label,) + release(sm, rm, tl, sp)
-
     # Levelling (full version): released from +-1/20 with XSPH 0.3 instead of without viscosity, a
     # liquid comes to rest level; what it holds instead is half the distance between the two
     # releases' centres of mass (the particles each start drops, if any, cancel between them).
@@ -1866,10 +1872,10 @@ def case10(S):
     level_methods = [] if q else METHODS
     level_futures = {(m, sign): S.pool.submit(release, m, m, sign * 0.05, 0.01, True)
                      for m in level_methods for sign in (1, -1)}
-    futures = [S.pool.submit(one, *c) for c in cases]
+    futures = [S.pool.submit(release, *c[1:]) for c in cases]
     results = [f.result() for f in futures]
     rows, series = [], {}
-    for (label, sm, rm, tl, sp), (_, settle, run) in zip(cases, results):
+    for (label, sm, rm, tl, sp), (settle, run) in zip(cases, results):
         status = settle.status if run is None else run.status
         cm = read_rows(run, "center_of_mass_x.csv") if run is not None else []
         if run is None or not run.ok or len(cm) < 50:
@@ -1899,7 +1905,7 @@ def case10(S):
         half = 0.5 * (np.array([float(r["x"]) for r in cu]) - np.array([float(r["x"]) for r in cd]))
         level_series[m] = (t, half)
         held = float(np.mean(half[t >= level_s - 0.5]))
-        level_rows.append([m, status, held, held * 12 * SLOSH_H / SLOSH_L ** 2])
+        level_rows.append([m, status, held, held * 12 * depth / length ** 2])
     if level_rows:
         S.write_csv("case10_levelling.csv", ["method", "status", "held_center_of_mass_offset_m", "held_slope"],
                     level_rows)
@@ -1920,8 +1926,7 @@ def case10(S):
         for (label, tt), (t, y) in series.items():
             if tt == tl and label in METHODS:
                 a.plot(t, y, label=label, color=COLORS.get(label))
-        tt = np.linspace(0, release_s, 600)
-        a.plot(tt, np.zeros_like(tt), color="0.6", lw=0.5)
+        a.axhline(0, color="0.6", lw=0.5)
         for k in range(int(2 * release_s * f0) + 1):  # theory's zero crossings, for the eye
             a.axvline((0.5 * k + 0.25) / f0, color="0.85", lw=0.5)
         a.set_xlabel("t (s)")
