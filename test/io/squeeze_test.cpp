@@ -24,7 +24,9 @@ TEST(Squeeze, AParticleBetweenABoxAndATankWallDoesNotBlowUpTheMlsSolve)
   // The squeeze is chaotic: whether a squeezed particle is shot out depends on the step sizes.
   // Five CFL numbers around the scene's 0.4 are five different runs through it (the floor of
   // Eq. A4d from the first sweep on let a particle out at 6.1-6.3 m/s in two of them, and at
-  // 20-54 m/s at CFL 0.37 and 0.43).
+  // 20-54 m/s at CFL 0.37 and 0.43). Nor are these five a sample of the rest: from 0.30 to 0.50 in
+  // steps of 0.01, 5 of 21 runs throw a particle faster than 5 m/s (5.7-20 m/s, the README's known
+  // problem); this test holds the band the five lie in.
   for (const double cfl : {0.36, 0.38, 0.40, 0.42, 0.44})
   {
     SceneConfig scene = base;
