@@ -38,6 +38,18 @@ SceneConfig thrownAtTheFloor(double z0, double speed, double guard)
   return s;
 }
 
+/// thrownAtTheFloor's tank with a lid over its middle: a solid box 8 x 8 cm whose lower face is
+/// `gap` (m) above the floor's surface (its layer half a spacing inside, as the floor's).
+SceneConfig withALid(SceneConfig s, double gap)
+{
+  BoundaryConfig lid;
+  lid.name = "lid";
+  lid.type = ShapeType::Box;
+  lid.box = {Vec3d(0.06, 0.06, gap), Vec3d(0.14, 0.14, gap + 0.04)};
+  s.boundaries.push_back(lid);
+  return s;
+}
+
 /// Water (the box `fluid`, 1 cm spacing) in a mesh container (`closed`: held inside it; open: a
 /// thin shell, which holds water as any wall does) under gravity tilted as by a `sideways` (m/s^2)
 /// acceleration, XSPH 0.01, the adaptive step.
@@ -98,18 +110,6 @@ ThreeSeconds runThreeSeconds(const SceneConfig& scene)
   return out;
 }
 }  // namespace
-
-/// thrownAtTheFloor's tank with a lid over its middle: a solid box 8 x 8 cm whose lower face is
-/// `gap` (m) above the floor's surface (its layer half a spacing inside, as the floor's).
-SceneConfig withALid(SceneConfig s, double gap)
-{
-  BoundaryConfig lid;
-  lid.name = "lid";
-  lid.type = ShapeType::Box;
-  lid.box = {Vec3d(0.06, 0.06, gap), Vec3d(0.14, 0.14, gap + 0.04)};
-  s.boundaries.push_back(lid);
-  return s;
-}
 
 /// The guard alone (no pressure solve, which stops a lone particle by itself): one particle at
 /// (0.1, 0.1, z0) in thrownAtTheFloor's tank (or `scene`, built on it) moved by dt v, the first
@@ -214,8 +214,8 @@ TEST(WallGuard, AParticleInAGapClosingFromBothSidesIsLeftToThePressure)
   EXPECT_EQ(g.report.particles, 0u);
   EXPECT_EQ(g.fluid.x[0], Vec3(Real(0.1), Real(0.1), Real(0)));
   EXPECT_EQ(g.fluid.v[0], Vec3::Zero());
-  // The same lid at rest and the particle moving 1 mm towards the floor: from where it started c is back
-  // at its limit, so the guard acts as anywhere else and holds it there.
+  // The same lid at rest and the particle moving 1 mm towards the floor: where it started c is
+  // back at its limit, so the guard acts as anywhere else and holds it there.
   GuardOnly moving(s, 0.0, Vec3(0, 0, -1), Vec3::Zero(), Vec3::Zero(), 0.001);
   EXPECT_EQ(moving.report.particles, 1u);
   EXPECT_NEAR(moving.fluid.x[0].z(), 0.0, 5e-5);

@@ -135,8 +135,8 @@ WallGuardReport WallGuard::apply(double dt, const CubicKernel& kernel, FluidPart
     // Where even the whole reach leaves c above the limit (beyond the search's 0.1 % of it), no
     // point the step could have come from is clear of the walls: a gap closing on the particle
     // from both sides, whose badly defined normal a push would follow into the other wall (the
-    // squeeze test: a particle thrown at 26 m/s, or unstable, with such pushes). The pressure
-    // solve is left to it.
+    // squeeze test with the guard at 0.5: a particle thrown at 26 m/s). The pressure solve is
+    // left to it.
     if (c_hi > kUnreachable * limit_[k]) return;
     Real t = hi;
     if (c_hi < 0)
