@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <string>
 
 #include "fluid_sim/core/simulation.h"
 #include "small_scene.h"
@@ -267,13 +268,17 @@ struct StillLayer
   double rms_speed = 0.0;  // m/s at the end
 };
 
-StillLayer runStillLayer(double rho, double tolerance, double seconds)
+StillLayer runStillLayer(double rho, double tolerance, double seconds,
+                         BoundaryPressureMethod method = BoundaryPressureMethod::Mls,
+                         SweepOrder sweep = SweepOrder::Jacobi)
 {
   // 2 cm particles, 30 cm deep (15 layers), the robot demo's 4 ms step: from zero a solve needs
   // about as many relaxed Jacobi sweeps here as the demo's tank at 1.1 cm (36 per step, up to 58).
   SceneConfig scene = test::waterTank(0.02, Vec3d(0.2, 0.2, 0.5), 0.3);
   scene.time_step.fixed = 0.004;
   scene.solver.chebyshev_rho = rho;
+  scene.solver.boundary_pressure = method;
+  scene.solver.sweep = sweep;
   scene.solver.density_error = tolerance;
   scene.solver.divergence_error = tolerance;
   Simulation sim(scene);
@@ -336,3 +341,44 @@ TEST(Chebyshev, SavesSweepsNotAccuracy)
   // plain, 0.050 with the semi-iteration).
   EXPECT_LT(fast.rms_speed, 1.5 * plain.rms_speed);
 }
+
+class GaussSeidel : public ::testing::TestWithParam<BoundaryPressureMethod>
+{
+};
+
+TEST_P(GaussSeidel, SavesSweepsNotAccuracy)
+{
+  // Gauss-Seidel sweeps (solver.sweep: gauss_seidel, Eq. A8b) solve the system of the relaxed
+  // Jacobi sweeps (Eq. A8) to the same stopping error (Eq. A9), in fewer sweeps, and must not
+  // stir the water more. Each boundary method: mirroring has no p_b to follow, SPH's density
+  // solve starts from its hydrostatic wall term, MLS's p_b follows the fluid once per sweep.
+  // In this narrow tank (10 x 10 particles a layer) two thirds of the water is within h of a
+  // wall, where the step stays relaxed by omega: measured 24.8-26.7 sweeps per step against
+  // Jacobi's 33.4-36.3 (the bulk of a wide tank saves more, docs/performance.md).
+  // The floor's pressure against a solve ten times tighter (Chebyshev's, which converges there
+  // within 50 sweeps): Gauss-Seidel 1.002 (mirroring), 1.008 (SPH), 1.019 (MLS), Jacobi 1.003,
+  // 0.989, 0.994. The layer is still settling from its fill (rms 0.05 m/s) and how a solve
+  // meets the tolerance changes its path: MLS's Gauss-Seidel solve at 1e-4 (capped at 100
+  // sweeps) puts the floor at 2,875 Pa where Chebyshev's tight one puts it at 2,837, so 2.5 %
+  // bounds what a correct solve does here, not 1 % as for Chebyshev's own test.
+  const BoundaryPressureMethod method = GetParam();
+  const StillLayer jacobi = runStillLayer(0.0, 0.001, 1.0, method, SweepOrder::Jacobi);
+  const StillLayer gs = runStillLayer(0.0, 0.001, 1.0, method, SweepOrder::GaussSeidel);
+  const StillLayer tight = runStillLayer(0.95, 1e-4, 1.0, method, SweepOrder::Jacobi);
+  std::printf(
+      "%s: density iterations per step (most): Jacobi %.2f (%d), Gauss-Seidel %.2f (%d), Chebyshev at 1e-4 %.2f "
+      "(%d); floor pressure %.1f, %.1f, %.1f Pa; rms speed %.4f, %.4f, %.4f m/s\n",
+      toString(method), jacobi.iterations, jacobi.most, gs.iterations, gs.most, tight.iterations, tight.most,
+      jacobi.bottom_pressure, gs.bottom_pressure, tight.bottom_pressure, jacobi.rms_speed, gs.rms_speed,
+      tight.rms_speed);
+  EXPECT_LT(gs.iterations, 0.8 * jacobi.iterations);
+  EXPECT_NEAR(gs.bottom_pressure / tight.bottom_pressure, 1.0, 0.025);
+  EXPECT_LT(gs.rms_speed, 1.5 * jacobi.rms_speed);
+}
+
+INSTANTIATE_TEST_SUITE_P(Methods, GaussSeidel,
+                         ::testing::Values(BoundaryPressureMethod::Mirroring, BoundaryPressureMethod::SphExtrapolation,
+                                           BoundaryPressureMethod::Mls),
+                         [](const ::testing::TestParamInfo<BoundaryPressureMethod>& info) {
+                           return std::string(toString(info.param));
+                         });

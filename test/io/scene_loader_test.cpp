@@ -432,6 +432,18 @@ TEST(SceneLoader, UnknownEnumValue)
               "unknown value 'hot' (expected zero or jacobi)");
   expectError(kBase + "solver: {warm_start_guess: last}\n", "solver.warm_start_guess",
               "unknown value 'last' (expected previous or damped)");
+  expectError(kBase + "solver: {sweep: sor}\n", "solver.sweep",
+              "unknown value 'sor' (expected jacobi or gauss_seidel)");
+  // Chebyshev's semi-iteration extrapolates Jacobi sweeps (Eq. A8a): not with Gauss-Seidel's.
+  expectError(kBase + "solver: {sweep: gauss_seidel, chebyshev_rho: 0.95}\n", "solver.chebyshev_rho",
+              "cannot be combined with solver.sweep: gauss_seidel");
+}
+
+TEST(SceneLoader, SweepOrder)
+{
+  EXPECT_EQ(parseScene(kBase, "scene.yaml").solver.sweep, SweepOrder::Jacobi);  // the paper's, the default
+  EXPECT_EQ(parseScene(kBase + "solver: {sweep: gauss_seidel}\n", "scene.yaml").solver.sweep, SweepOrder::GaussSeidel);
+  EXPECT_EQ(parseScene(kBase, "scene.yaml", {"solver.sweep=gauss_seidel"}).solver.sweep, SweepOrder::GaussSeidel);
 }
 
 TEST(SceneLoader, TimeStepIsFixedOrAdaptive)

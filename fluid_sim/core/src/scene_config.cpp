@@ -51,6 +51,11 @@ const char* toString(MlsSingularMode mode)
   return "?";
 }
 
+const char* toString(SweepOrder order)
+{
+  return order == SweepOrder::GaussSeidel ? "gauss_seidel" : "jacobi";
+}
+
 const char* toString(ColdStart start)
 {
   return start == ColdStart::Jacobi ? "jacobi" : "zero";
@@ -436,6 +441,11 @@ void validate(const SceneConfig& s)
     throw ConfigError("solver.wall_guard", "must be in [0, 1] spacings (0 = off), got " + str(sv.wall_guard));
   if (!(sv.chebyshev_rho >= 0.0 && sv.chebyshev_rho < 1.0))
     throw ConfigError("solver.chebyshev_rho", "must be in [0, 1) (0 = off), got " + str(sv.chebyshev_rho));
+  if (sv.chebyshev_rho > 0.0 && sv.sweep == SweepOrder::GaussSeidel)
+    throw ConfigError(
+        "solver.chebyshev_rho",
+        "extrapolates Jacobi sweeps (Eq. A8a) and cannot be combined with solver.sweep: gauss_seidel; got " +
+            str(sv.chebyshev_rho));
   if (sv.chebyshev_delay < 1 || sv.chebyshev_delay > kMaxSolverIterations)
     throw ConfigError("solver.chebyshev_delay", "must be in [1, " + std::to_string(kMaxSolverIterations) + "], got " +
                                                     std::to_string(sv.chebyshev_delay));

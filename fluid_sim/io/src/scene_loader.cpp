@@ -124,6 +124,7 @@ SolverConfig readSolver(const Entry& e)
   if (auto m = r.get("warm_start_guess"))
     s.warm_start_guess = readNamed(*m, {WarmStartGuess::Previous, WarmStartGuess::Damped});
   r.read("omega", s.omega);
+  if (auto m = r.get("sweep")) s.sweep = readNamed(*m, {SweepOrder::Jacobi, SweepOrder::GaussSeidel});
   r.read("chebyshev_rho", s.chebyshev_rho);
   r.read("wall_guard", s.wall_guard);
   r.read("chebyshev_delay", s.chebyshev_delay);

@@ -107,6 +107,19 @@ public:
       acc -= p_over_rho2 * grad_b;
   }
 
+  /// The change of i's wall term when its own pressure changes by dp (Pa), dp_over_rho2 =
+  /// dp/rho_i^2 (m^5/(kg s^2)), added to acc (m/s^2): the term is linear in p_i alone.
+  void addOwnWallChange(Real dp_over_rho2, Real dp, const Vec3& grad_b, Vec3& acc) const
+  {
+    if constexpr (kEq2)
+      acc -= (dp_over_rho2 + dp * inv_rho0_sq_) * grad_b;
+    else
+      acc -= dp_over_rho2 * grad_b;
+  }
+
+  /// No p_b is stored: nothing lags behind the fluid pressures (Gauss-Seidel sweeps).
+  void addWallChange(std::size_t, const Vec3&, const std::vector<Real>&, Vec3&) const {}
+
   Real wallPressure(Index, Real p_i) const
   {
     if constexpr (kEq2)
@@ -179,6 +192,26 @@ public:
     }
     acc += wall - p_over_rho2 * grad_b;
     if constexpr (kRecord) wall_dv += wall_dt * wall;
+  }
+
+  /// The change of i's wall term when its own pressure changes (dp_over_rho2 = dp/rho_i^2): its
+  /// p_b part waits for the next extrapolation (addWallChange), added to acc (m/s^2).
+  void addOwnWallChange(Real dp_over_rho2, Real, const Vec3& grad_b, Vec3& acc) const
+  {
+    acc -= dp_over_rho2 * grad_b;
+  }
+
+  /// The change of i's wall term (Eq. 1's p_b part, m/s^2) from p_b = pb_before to the stored
+  /// p_b, added to acc.
+  void addWallChange(std::size_t i, const Vec3& xi, const std::vector<Real>& pb_before, Vec3& acc) const
+  {
+    const NeighborLists& fb = in_.neighbors.fluid_boundary;
+    const Real rho0 = in_.constants.rho0;
+    for (Index k = fb.offset[i]; k < fb.offset[i + 1]; ++k)
+    {
+      const Index b = fb.index[k];
+      acc -= (rho0 * volume_[b] * (pb_[b] - pb_before[b]) * inv_rho0_sq_ * fb.grad_factor[k]) * (xi - xb_[b]);
+    }
   }
 
   Real wallPressure(Index b, Real) const

@@ -46,6 +46,21 @@ public:
     return int(std::ceil(double(radius) / cell_ - 1e-9));
   }
 
+  /// Cells along each axis (x, y, z); cells are ordered x fastest, then y, then z.
+  int dim(int axis) const
+  {
+    return dims_[axis];
+  }
+
+  /// The sorted points of cells x0..x1 (inclusive) of the row (y, z), as [first, second): one
+  /// contiguous range, since cells are ordered x fastest. Empty before the grid is built.
+  std::pair<Index, Index> rowRange(int x0, int x1, int y, int z) const
+  {
+    if (cell_start_.empty()) return {0, 0};
+    const std::size_t row = std::size_t(dims_[0]) * (std::size_t(y) + std::size_t(dims_[1]) * z);
+    return {cell_start_[row + x0], cell_start_[row + x1 + 1]};
+  }
+
   /// Calls f(begin, end) for each contiguous range (in sorted order) of points in the cells within
   /// `reach` cells of p's cell. Nothing when p is outside the grid or the grid was never built.
   template <class F>

@@ -40,10 +40,18 @@ const char* toString(MlsSingularMode mode);
 /// The first guess of a solve without solver.warm_start (docs/method.md, Eq. A10).
 enum class ColdStart
 {
-  Zero,   // p_i = 0 (the paper's start; the first iteration then spends a pair pass on a^p = 0)
-  Jacobi  // one unrelaxed Jacobi step from zero where the water is compressed: p_i = s_i / A_i (default)
+  Zero,   // p_i = 0 (the paper's start, the default; the first sweep needs no pass over the pairs)
+  Jacobi  // one unrelaxed Jacobi step from zero where the water is compressed: p_i = s_i / A_i
 };
 const char* toString(ColdStart start);
+
+/// The order of a solve's pressure updates (docs/method.md, Eqs. A8, A8b).
+enum class SweepOrder
+{
+  Jacobi,      // every particle from the last sweep's a^p, relaxed by solver.omega (Eq. A8, the paper's)
+  GaussSeidel  // in turn, each from the a^p its predecessors left (Eq. A8b)
+};
+const char* toString(SweepOrder order);
 
 /// The first guess of a solve with solver.warm_start (docs/method.md, Eq. A10b).
 enum class WarmStartGuess
@@ -275,6 +283,9 @@ struct SolverConfig
   ColdStart cold_start = ColdStart::Zero;  // without warm_start  key: solver.cold_start: zero | jacobi
   WarmStartGuess warm_start_guess = WarmStartGuess::Previous;  // key: solver.warm_start_guess
   double omega = 0.5;                                          // relaxed Jacobi factor            key: solver.omega
+  // jacobi (Eq. A8) | gauss_seidel (Eq. A8b: about half the sweeps from a cold start in deep
+  // water, each as costly; next to a wall the step is relaxed by omega as in A8).  key: solver.sweep
+  SweepOrder sweep = SweepOrder::Jacobi;
   // With warm_start, the divergence solve too starts from the previous step's guess; off, it
   // starts as without warm_start (cold_start), which in the measured scenes converged in as many
   // iterations (1.00-1.02 per step) with fewer passes over the pairs.  key: solver.warm_start_divergence
