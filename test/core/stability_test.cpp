@@ -350,12 +350,13 @@ TEST_P(GaussSeidel, SavesSweepsNotAccuracy)
 {
   // Gauss-Seidel sweeps (solver.sweep: gauss_seidel, Eq. A8b) solve the system of the relaxed
   // Jacobi sweeps (Eq. A8) to the same stopping error (Eq. A9), in fewer sweeps, and must not
-  // stir the water more (the divergence solve keeps Jacobi's sweeps). Each boundary method: mirroring has no p_b to
+  // stir the water more (the divergence solve and the density solve's first two sweeps keep
+  // Jacobi's). Each boundary method: mirroring has no p_b to
   // follow, SPH's density solve starts from its hydrostatic wall term, MLS's p_b follows the fluid once per sweep. In
   // this narrow tank (10 x 10 particles a layer) two thirds of the water is within h of a wall, where the step stays
-  // relaxed by omega: measured 25.1-26.8 sweeps per step against Jacobi's 33.4-36.3 (the bulk of a wide tank saves
+  // relaxed by omega: measured 25.8-27.5 sweeps per step against Jacobi's 33.4-36.3 (the bulk of a wide tank saves
   // more, docs/performance.md). The floor's pressure against a solve ten times tighter (Chebyshev's, which converges
-  // there within 50 sweeps): Gauss-Seidel 1.009 (mirroring), 1.008 (SPH), 1.021 (MLS), Jacobi 1.003, 0.989, 0.994. The
+  // there within 50 sweeps): Gauss-Seidel 1.005 (mirroring), 1.008 (SPH), 1.016 (MLS), Jacobi 1.003, 0.989, 0.994. The
   // layer is still settling from its fill (rms 0.05 m/s) and how a solve meets the tolerance changes its path: MLS's
   // Gauss-Seidel solve at 1e-4 (capped at 100 sweeps) puts the floor at 2,875 Pa where Chebyshev's tight one puts it at
   // 2,837, so 2.5 % bounds what a correct solve does here, not 1 % as for Chebyshev's own test.

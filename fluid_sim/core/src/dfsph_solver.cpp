@@ -653,11 +653,6 @@ private:
   int solve(std::vector<Real>& p, double dt, bool density_solve, double tol, int min_it, bool from_zero, double& error,
             bool& converged)
   {
-    // Eq. A8b in the density solve only: the divergence solve ends after one sweep in the measured
-    // scenes (1.00-1.03 per step), which from zero needs no pass over the pairs with A8 and a
-    // whole Gauss-Seidel sweep with A8b (bench_dam_break at 195 k: 9-11 instead of 3-4 ms per step).
-    if (density_solve && scene_.solver.sweep == SweepOrder::GaussSeidel)
-      return solveGaussSeidel(p, dt, density_solve, tol, min_it, from_zero, error, converged);
     const int max_it = scene_.solver.max_iterations;
     const double rho = scene_.solver.chebyshev_rho;
     if (rho > 0)
@@ -668,8 +663,12 @@ private:
     int it = 0;
     error = 0.0;
     converged = false;
+    // Eq. A8b in the density solve, after the first kJacobiSweepsFirst sweeps (below).
+    const bool gauss_seidel = density_solve && scene_.solver.sweep == SweepOrder::GaussSeidel;
     while (it < max_it)
     {
+      if (gauss_seidel && it == kJacobiSweepsFirst)
+        return solveGaussSeidel(p, dt, density_solve, tol, min_it, it, error, converged);
       if (it == kWallFloorFromSweep)  // Eq. A4d: A_i is negative, the floor its fraction of A_full's
         for (const FlooredDiagonal& f : floored_) diagonal_[f.i] = -Real(kWallDiagonalFloor * reference_diagonal_);
       // From zero, where the method's p_b is then zero too (vanishesAtZero), every term of Eq. 1
@@ -727,6 +726,10 @@ private:
     std::array<Index, 4> begin, end;  // its four rows' ranges of the sorted fluid
   };
   static constexpr int kGsColours = 4;
+  /// The density solve's first sweeps stay Jacobi's (A8) with solver.sweep: gauss_seidel. From zero
+  /// the first needs no pass over the pairs, and most solves end after the two minimum sweeps,
+  /// which cost Jacobi three passes (two and the final a^p) and Gauss-Seidel five and a half.
+  static constexpr int kJacobiSweepsFirst = 2;
 
   /// The units of this step's sorted fluid, colour by colour (gs_units_, gs_colour_begin_).
   void buildGaussSeidelUnits()
@@ -872,10 +875,10 @@ private:
     return total.error / double(std::max<std::size_t>(fluid_.size(), 1));
   }
 
-  /// solve() with Eq. A8b's sweeps (the density solve): a^p is kept up to date particle by
-  /// particle instead of being evaluated once per sweep. The walls' p_b (SPH, MLS) follow the fluid pressures once per
-  /// sweep, as in solve().
-  int solveGaussSeidel(std::vector<Real>& p, double dt, bool density_solve, double tol, int min_it, bool from_zero,
+  /// solve()'s density solve continued with Eq. A8b's sweeps from its sweep `it` on: a^p is kept
+  /// up to date particle by particle instead of being evaluated once per sweep. The walls' p_b
+  /// (SPH, MLS) follow the fluid pressures once per sweep, as in solve().
+  int solveGaussSeidel(std::vector<Real>& p, double dt, bool density_solve, double tol, int min_it, int it,
                        double& error, bool& converged)
   {
     const std::size_t n = fluid_.size();
@@ -885,22 +888,12 @@ private:
       gs_units_step_ = step_count_;
     }
     const int max_it = scene_.solver.max_iterations;
-    // a^p of the first guess, exactly (solve()'s shortcuts from zero).
+    // a^p of the pressures the Jacobi sweeps left, exactly.
     method_.extrapolate(p, density_solve);
-    if (from_zero && method_.vanishesAtZero(density_solve))
-    {
-      a4_.resize(n);
-      std::fill(a4_.begin(), a4_.end(), Vec4::Zero());
-    }
-    else if (kWallOnlyStart && from_zero)
-      computeWallAcceleration(p);
-    else
-      computePressureAcceleration(p);
+    computePressureAcceleration(p);
     // The updates' neighbour vectors x_i - x_j need x4's padding lane at zero, where an
     // evaluation leaves kappa (a^p's padding lane then stays zero, as fluidDivergence needs).
     parallelFor(n, [&](std::size_t i) { x4_[i][3] = Real(0); });
-    int it = 0;
-    error = 0.0;
     converged = false;
     while (it < max_it)
     {

@@ -45,7 +45,7 @@ enum class ColdStart
 };
 const char* toString(ColdStart start);
 
-/// The order of a solve's pressure updates (docs/method.md, Eqs. A8, A8b).
+/// The order of the density solve's pressure updates (docs/method.md, Eqs. A8, A8b).
 enum class SweepOrder
 {
   Jacobi,      // every particle from the last sweep's a^p, relaxed by solver.omega (Eq. A8, the paper's)
@@ -283,8 +283,9 @@ struct SolverConfig
   ColdStart cold_start = ColdStart::Zero;  // without warm_start  key: solver.cold_start: zero | jacobi
   WarmStartGuess warm_start_guess = WarmStartGuess::Previous;  // key: solver.warm_start_guess
   double omega = 0.5;                                          // relaxed Jacobi factor            key: solver.omega
-  // jacobi (Eq. A8) | gauss_seidel (Eq. A8b: about half the sweeps from a cold start in deep
-  // water, each as costly; next to a wall the step is relaxed by omega as in A8).  key: solver.sweep
+  // The density solve's sweeps: jacobi (Eq. A8) | gauss_seidel (Eq. A8b: about half the sweeps
+  // from a cold start in deep water, each 1.3 times as costly; next to a wall the step is
+  // relaxed by omega as in A8).  key: solver.sweep
   SweepOrder sweep = SweepOrder::Jacobi;
   // With warm_start, the divergence solve too starts from the previous step's guess; off, it
   // starts as without warm_start (cold_start), which in the measured scenes converged in as many
