@@ -1,7 +1,8 @@
 #pragma once
 // The DFSPH pressure solver (Bender & Koschier 2017, iterating on pressure as the paper does):
 // densities, the Jacobi diagonal and density rates (Eqs. A1, A2, A4), the divergence solve
-// (Eq. A5), the density solve (Eq. A6), both by relaxed Jacobi (Eqs. A7-A10), the pressure
+// (Eq. A5), the density solve (Eq. A6), both by relaxed Jacobi (Eqs. A7-A10; the density solve
+// optionally by Gauss-Seidel sweeps from its third sweep on, Eq. A8b), the pressure
 // acceleration with the boundary term (Eq. 1), the pressure part of the bodies' wrenches
 // (Eq. A12) and the time integration (Eq. A16). One solver is compiled per boundary pressure
 // method (boundary_pressure_methods.h); makePressureSolver picks it once.
