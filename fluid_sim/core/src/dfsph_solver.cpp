@@ -894,11 +894,11 @@ private:
     // The updates' neighbour vectors x_i - x_j need x4's padding lane at zero, where an
     // evaluation leaves kappa (a^p's padding lane then stays zero, as fluidDivergence needs).
     parallelFor(n, [&](std::size_t i) { x4_[i][3] = Real(0); });
+    // Eq. A4d's floors were set by solve()'s sweeps before this one; they are lifted below.
+    static_assert(kWallFloorFromSweep < kJacobiSweepsFirst, "the Jacobi sweeps set Eq. A4d's floors");
     converged = false;
     while (it < max_it)
     {
-      if (it == kWallFloorFromSweep)  // Eq. A4d, as in solve()
-        for (const FlooredDiagonal& f : floored_) diagonal_[f.i] = -Real(kWallDiagonalFloor * reference_diagonal_);
       error = gaussSeidelSweep(p, dt, density_solve);
       ++it;
       ++pressure_passes_;  // a sweep updates a^p over every pair once
