@@ -275,7 +275,8 @@ StillLayer runStillLayer(double rho, double tolerance, double seconds,
 {
   // 2 cm particles, 30 cm deep (15 layers), the robot demo's 4 ms step: from zero a solve needs
   // about as many relaxed Jacobi sweeps here as the demo's tank at 1.1 cm (36 per step, up to 58).
-  SceneConfig scene = test::waterTank(0.02, Vec3d(0.2, 0.2, 0.5), 0.3);
+  const Vec3d tank(0.2, 0.2, 0.5);  // m
+  SceneConfig scene = test::waterTank(0.02, tank, 0.3);
   scene.time_step.fixed = 0.004;
   scene.solver.chebyshev_rho = rho;
   scene.solver.boundary_pressure = method;
@@ -308,7 +309,7 @@ StillLayer runStillLayer(double rho, double tolerance, double seconds,
       out.bottom_pressure += sum / std::max(n, 1);
       // The level from the water's volume (a particle stands for s^3) over the tank's floor.
       const double s3 = scene.spacing * scene.spacing * scene.spacing;
-      const double level = double(sim.numFluidParticles()) * s3 / (0.2 * 0.2);
+      const double level = double(sim.numFluidParticles()) * s3 / (tank.x() * tank.y());
       out.hydrostatic += scene.rest_density * scene.gravity.norm() * (level - height / std::max(n, 1));
       ++averaged;
     }

@@ -85,7 +85,6 @@ public:
   void computeDensityAndDiagonal() override
   {
     pressure_passes_ = 0;  // a new step
-    ++step_count_;
     densityDiagonalAndRate();
     method_.prepare();
     if constexpr (Method::kExtrapolated) extrapolationFeedback();
@@ -731,7 +730,8 @@ private:
   /// which cost Jacobi three passes (two and the final a^p) and Gauss-Seidel five and a half.
   static constexpr int kJacobiSweepsFirst = 2;
 
-  /// The units of this step's sorted fluid, colour by colour (gs_units_, gs_colour_begin_).
+  /// The units of this step's sorted fluid, colour by colour (gs_units_, gs_colour_begin_): a scan
+  /// over the grid's (y, z) rows, not over the particles.
   void buildGaussSeidelUnits()
   {
     const UniformGrid& g = in_.neighbors.fluidGrid();
@@ -882,11 +882,7 @@ private:
                        double& error, bool& converged)
   {
     const std::size_t n = fluid_.size();
-    if (gs_units_step_ != step_count_)  // the fluid was sorted again at the start of this step
-    {
-      buildGaussSeidelUnits();
-      gs_units_step_ = step_count_;
-    }
+    buildGaussSeidelUnits();  // of this step's sort: the density solve runs once per step
     const int max_it = scene_.solver.max_iterations;
     // a^p of the pressures the Jacobi sweeps left, exactly.
     method_.extrapolate(p, density_solve);
@@ -1005,7 +1001,6 @@ private:
   std::array<std::size_t, kGsColours + 1> gs_colour_begin_{};
   std::vector<SweepFigures> gs_unit_figures_;
   std::vector<Real> pb_before_;
-  std::uint64_t step_count_ = 0, gs_units_step_ = ~std::uint64_t(0);
 };
 }  // namespace
 

@@ -18,6 +18,8 @@
 //   bool vanishesAtZero(density_solve)   whether p = 0 everywhere gives p_b = 0 everywhere, so that
 //                                        the wall term, and with it a^p (Eq. 1), is zero
 //   addWallAcceleration<kRecord>(...)    the boundary term of Eq. 1 for one fluid particle
+//   addOwnWallChange(dk, dp, gb, acc)    its change when p_i alone changes (Gauss-Seidel, Eq. A8b)
+//   addWallChange(i, x_i, pb_before, acc) its change from p_b = pb_before to the stored p_b (A8b)
 //   Real wallPressure(b, p_i)            the p_b that fluid particle i sees at b (forces, Eq. A12)
 //   Real contactPressure(b, p_i)         the pressure the wall bears there (contact statistics)
 //   void report(StepReport&, bodies)     the method's counts for the step report
@@ -182,14 +184,7 @@ public:
   void addWallAcceleration(std::size_t i, const Vec3& xi, Real p_over_rho2, Real, const Vec3& grad_b, Real wall_dt,
                            Vec3& acc, Vec3& wall_dv) const
   {
-    const NeighborLists& fb = in_.neighbors.fluid_boundary;
-    const Real rho0 = in_.constants.rho0;
-    Vec3 wall = Vec3::Zero();
-    for (Index k = fb.offset[i]; k < fb.offset[i + 1]; ++k)
-    {
-      const Index b = fb.index[k];
-      wall -= (rho0 * volume_[b] * pb_[b] * inv_rho0_sq_ * fb.grad_factor[k]) * (xi - xb_[b]);
-    }
+    const Vec3 wall = wallSum(i, xi, [this](Index b) { return pb_[b]; });
     acc += wall - p_over_rho2 * grad_b;
     if constexpr (kRecord) wall_dv += wall_dt * wall;
   }
@@ -205,13 +200,7 @@ public:
   /// p_b, added to acc.
   void addWallChange(std::size_t i, const Vec3& xi, const std::vector<Real>& pb_before, Vec3& acc) const
   {
-    const NeighborLists& fb = in_.neighbors.fluid_boundary;
-    const Real rho0 = in_.constants.rho0;
-    for (Index k = fb.offset[i]; k < fb.offset[i + 1]; ++k)
-    {
-      const Index b = fb.index[k];
-      acc -= (rho0 * volume_[b] * (pb_[b] - pb_before[b]) * inv_rho0_sq_ * fb.grad_factor[k]) * (xi - xb_[b]);
-    }
+    acc += wallSum(i, xi, [&](Index b) { return pb_[b] - pb_before[b]; });
   }
 
   Real wallPressure(Index b, Real) const
@@ -254,6 +243,22 @@ public:
   }
 
 protected:
+  /// -sum_b psi_b (pb(b)/rho0^2) grad W_ib over i's boundary neighbours (m/s^2): Eq. 1's p_b part
+  /// for the pressures pb(b) (Pa).
+  template <class Pressure>
+  Vec3 wallSum(std::size_t i, const Vec3& xi, Pressure&& pb) const
+  {
+    const NeighborLists& fb = in_.neighbors.fluid_boundary;
+    const Real rho0 = in_.constants.rho0;
+    Vec3 wall = Vec3::Zero();
+    for (Index k = fb.offset[i]; k < fb.offset[i + 1]; ++k)
+    {
+      const Index b = fb.index[k];
+      wall -= (rho0 * volume_[b] * pb(b) * inv_rho0_sq_ * fb.grad_factor[k]) * (xi - xb_[b]);
+    }
+    return wall;
+  }
+
   /// The coefficient figures of the step report (smallest and largest c_bf, largest and mean
   /// sum_f |c_bf| over the active boundary particles), from the coefficients of prepare().
   void coefficientFigures();

@@ -53,10 +53,9 @@ public:
   }
 
   /// The sorted points of cells x0..x1 (inclusive) of the row (y, z), as [first, second): one
-  /// contiguous range, since cells are ordered x fastest. Empty before the grid is built.
+  /// contiguous range, since cells are ordered x fastest. Only after build().
   std::pair<Index, Index> rowRange(int x0, int x1, int y, int z) const
   {
-    if (cell_start_.empty()) return {0, 0};
     const std::size_t row = std::size_t(dims_[0]) * (std::size_t(y) + std::size_t(dims_[1]) * z);
     return {cell_start_[row + x0], cell_start_[row + x1 + 1]};
   }
@@ -79,9 +78,7 @@ public:
     for (int z = z0; z <= z1; ++z)
       for (int y = y0; y <= y1; ++y)
       {
-        const std::size_t row = std::size_t(dims_[0]) * (std::size_t(y) + std::size_t(dims_[1]) * z);
-        const Index begin = cell_start_[row + x0];
-        const Index end = cell_start_[row + x1 + 1];
+        const auto [begin, end] = rowRange(x0, x1, y, z);
         if (begin < end) f(begin, end);
       }
   }
