@@ -23,7 +23,7 @@ namespace fluid_sim
 namespace
 {
 #ifdef FLUID_SIM_QUAD_PAIRS
-// The two solver passes four pairs at a time (float, AVX-512): each pair's padded Vec4 in one
+// The solver's passes four pairs at a time (float, AVX-512): each pair's padded Vec4 in one
 // 128-bit lane of a 512-bit register, loaded in place (no gather instruction: on this project's
 // CPU a 16-lane gather of x, y, z arrays made the passes slower, docs/performance.md). A row's
 // pairs then add up in four lane sums, joined at the row's end, and the pairs after the last
@@ -218,7 +218,29 @@ private:
       // Eq. A1: the fluid neighbours' sum of W comes from the search (the lists store no W).
       Real density = mass_ * (w0 + ff_.weight_sum[i]);
       Vec4 gf4 = Vec4::Zero(), sq4 = Vec4::Zero(), rate4 = Vec4::Zero();
-      for (Index k = ff_.offset[i]; k < ff_.offset[i + 1]; ++k)
+      Index k = ff_.offset[i];
+      const Index end = ff_.offset[i + 1];
+#ifdef FLUID_SIM_QUAD_PAIRS
+      {
+        // Four pairs at a time (FLUID_SIM_QUAD_PAIRS): g = grad_factor (x_i - x_j) per lane.
+        const __m512 xi16 = _mm512_maskz_broadcast_f32x4(__mmask16(0xFFFF), _mm_load_ps(xi4.data()));
+        const __m512 vi16 = _mm512_maskz_broadcast_f32x4(__mmask16(0xFFFF), _mm_load_ps(vi4.data()));
+        __m512 gacc = _mm512_setzero_ps(), sqacc = _mm512_setzero_ps(), racc = _mm512_setzero_ps();
+        for (; k + 4 <= end; k += 4)
+        {
+          const Index* const j = ff_.index.data() + k;
+          const __m512 g = _mm512_mul_ps(spreadFour(_mm_loadu_ps(ff_.grad_factor.data() + k)),
+                                         _mm512_sub_ps(xi16, loadFourVec4(x4_.data(), j)));
+          gacc = _mm512_add_ps(gacc, g);
+          sqacc = _mm512_fmadd_ps(g, g, sqacc);
+          racc = _mm512_fmadd_ps(_mm512_sub_ps(vi16, loadFourVec4(v4_.data(), j)), g, racc);
+        }
+        _mm_store_ps(gf4.data(), sumLanes(gacc));
+        _mm_store_ps(sq4.data(), sumLanes(sqacc));
+        _mm_store_ps(rate4.data(), sumLanes(racc));
+      }
+#endif
+      for (; k < end; ++k)
       {
         const Index j = ff_.index[k];
         const Vec4 g = ff_.grad_factor[k] * (xi4 - x4_[j]);
