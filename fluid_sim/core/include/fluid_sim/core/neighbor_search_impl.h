@@ -29,6 +29,27 @@ void buildNeighborLists(const std::vector<Vec3>& queries, const UniformGrid& gri
                      std::forward<PairGradFactor>(pairGradFactor), std::forward<PairWeight>(pairWeight), out);
 }
 
+/// The candidates of one grid cell's queries (the points of the cells within reach), gathered
+/// into one run for the vector search: positions (m) and indices.
+struct CellCandidates
+{
+  Index cell = UniformGrid::kOutside;  // the queries' cell, kOutside = none gathered
+  std::size_t count = 0;
+  std::size_t next_query = ~std::size_t(0);  // the query whose cell was looked up ahead ...
+  Index next_cell = UniformGrid::kOutside;   // ... and that cell
+  std::vector<Real> x, y, z;
+  std::vector<Index> id;
+  void reserve(std::size_t size)
+  {
+    if (x.size() >= size) return;
+    const std::size_t grown = std::max(2 * x.size(), size + 64);
+    x.resize(grown);
+    y.resize(grown);
+    z.resize(grown);
+    id.resize(grown);
+  }
+};
+
 template <class PairGradFactor, class PairWeight>
 void buildNeighborLists(const std::vector<Vec3>& queries, const std::vector<GridPoints>& sources, Real radius,
                         bool skip_self, PairGradFactor&& pairGradFactor, PairWeight&& pairWeight, NeighborLists& out)
@@ -163,15 +184,107 @@ void buildNeighborLists(const std::vector<Vec3>& queries, const std::vector<Grid
           if (block_weight[slot].size() < bi.size()) block_weight[slot].resize(bi.size());
         std::size_t used = 0;
         const std::size_t i_end = std::min(n, (b + 1) * kBlock);
+        std::vector<CellCandidates> cell_candidates(kVector ? sources.size() : 0);
         for (std::size_t i = b * kBlock; i < i_end; ++i)
         {
           const Vec3 xi = queries[i];
           const std::size_t row_start = used;
           const Index self = skip_self ? Index(i) : ~Index(0);
+#if defined(__AVX512F__)
+          // Candidates [begin, end) of x, y, z arrays against query i, with their indices from
+          // `ids` (nullptr: the position itself). 16 candidates at a time: distances, a hit
+          // mask, and the hits compressed in registers and stored as whole vectors (the memory
+          // form of vpcompress is slow on some cores); the cursor advances by the number of hits.
+          auto scanVector = [&](const float* px, const float* py, const float* pz, const Index* ids, Index begin,
+                                Index end) {
+            if constexpr (kVector)  // float only: a double build compiles no vector code
+            {
+              const std::size_t len = end - begin;
+              if (bi.size() < used + len + kSlack)
+              {
+                bi.resize(std::max(2 * bi.size(), used + len + kSlack + 256));
+                bf.resize(bi.size());
+                if constexpr (kWeight) block_weight[slot].resize(bi.size());
+              }
+              Index* const out_j = bi.data();
+              Real* const out_d2 = bf.data();
+              const __m512 qx = _mm512_set1_ps(xi.x()), qy = _mm512_set1_ps(xi.y()), qz = _mm512_set1_ps(xi.z());
+              const __m512 r2v = _mm512_set1_ps(r2max);
+              const __m512i lane = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+              const __m512i selfv = _mm512_set1_epi32(int(self));
+              for (Index k = begin; k < end; k += 16)
+              {
+                const unsigned left = end - k;
+                const __mmask16 valid = left >= 16 ? __mmask16(0xFFFF) : __mmask16((1u << left) - 1u);
+                const __m512 dx = _mm512_sub_ps(_mm512_maskz_loadu_ps(valid, px + k), qx);
+                const __m512 dy = _mm512_sub_ps(_mm512_maskz_loadu_ps(valid, py + k), qy);
+                const __m512 dz = _mm512_sub_ps(_mm512_maskz_loadu_ps(valid, pz + k), qz);
+                const __m512 d2 = _mm512_fmadd_ps(dz, dz, _mm512_fmadd_ps(dy, dy, _mm512_mul_ps(dx, dx)));
+                const __m512i j =
+                    ids ? _mm512_maskz_loadu_epi32(valid, ids + k) : _mm512_add_epi32(_mm512_set1_epi32(int(k)), lane);
+                const __mmask16 hit =
+                    _mm512_mask_cmp_ps_mask(valid, d2, r2v, _CMP_LT_OQ) & __mmask16(~_mm512_cmpeq_epi32_mask(j, selfv));
+                _mm512_storeu_si512(out_j + used, _mm512_maskz_compress_epi32(hit, j));
+                _mm512_storeu_ps(out_d2 + used, _mm512_maskz_compress_ps(hit, d2));
+                used += std::size_t(_mm_popcnt_u32(hit));
+              }
+            }
+          };
+          (void)scanVector;
+#endif
           for (std::size_t s = 0; s < sources.size(); ++s)
           {
             const GridPoints& src = sources[s];
             const Index* const id = src.ids;
+#if defined(__AVX512F__)
+            if constexpr (kVector)
+            {
+              // Queries of one cell share their candidates (the cells within reach). When this
+              // query and the next are in one cell, the candidates are gathered once into one
+              // contiguous run (x, y, z, index) and every query of the cell scans that: whole
+              // 16-lane blocks instead of each row's tail, and one loop of one length for the
+              // cell instead of a loop per row. The same candidates in the same order: the same
+              // lists. A query whose neighbour in the query order lies in another cell (the MLS
+              // fits' boundary queries, mostly) reads the rows in place.
+              const std::size_t m = src.count;
+              const float* const px = soa_of[s];
+              const float* const py = px + m;
+              const float* const pz = py + m;
+              CellCandidates& cc = cell_candidates[s];
+              const Index cell = cc.next_query == i ? cc.next_cell : src.grid->cellOf(xi);
+              if (cell == UniformGrid::kOutside) continue;  // forEachRange visits nothing either
+              if (cell != cc.cell)
+              {
+                cc.cell = UniformGrid::kOutside;
+                cc.next_query = i + 1;
+                cc.next_cell = i + 1 < i_end ? src.grid->cellOf(queries[i + 1]) : UniformGrid::kOutside;
+                if (cc.next_cell == cell)
+                {
+                  cc.cell = cell;
+                  cc.count = 0;
+                  src.grid->forEachRange(xi, reach[s], [&](Index begin, Index end) {
+                    const std::size_t len = end - begin;
+                    cc.reserve(cc.count + len);
+                    std::copy_n(px + begin, len, cc.x.data() + cc.count);
+                    std::copy_n(py + begin, len, cc.y.data() + cc.count);
+                    std::copy_n(pz + begin, len, cc.z.data() + cc.count);
+                    Index* const to = cc.id.data() + cc.count;
+                    if (id)
+                      std::copy_n(id + begin, len, to);
+                    else
+                      for (std::size_t t = 0; t < len; ++t) to[t] = Index(begin + t);
+                    cc.count += len;
+                  });
+                }
+              }
+              if (cc.cell == cell)
+                scanVector(cc.x.data(), cc.y.data(), cc.z.data(), cc.id.data(), 0, Index(cc.count));
+              else
+                src.grid->forEachRange(xi, reach[s],
+                                       [&](Index begin, Index end) { scanVector(px, py, pz, id, begin, end); });
+              continue;
+            }
+#endif
             src.grid->forEachRange(xi, reach[s], [&](Index begin, Index end) {
               const std::size_t len = end - begin;
               if (bi.size() < used + len + kSlack)
@@ -182,39 +295,6 @@ void buildNeighborLists(const std::vector<Vec3>& queries, const std::vector<Grid
               }
               Index* const out_j = bi.data();
               Real* const out_d2 = bf.data();
-#if defined(__AVX512F__)
-              if constexpr (kVector)
-              {
-                const std::size_t m = src.count;
-                const float* const px = soa_of[s];
-                const float* const py = px + m;
-                const float* const pz = py + m;
-                // 16 candidates at a time: distances, a hit mask, and the hits compressed in
-                // registers and stored as whole vectors (the memory form of vpcompress is slow on
-                // some cores); the cursor advances by the number of hits.
-                const __m512 qx = _mm512_set1_ps(xi.x()), qy = _mm512_set1_ps(xi.y()), qz = _mm512_set1_ps(xi.z());
-                const __m512 r2v = _mm512_set1_ps(r2max);
-                const __m512i lane = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
-                const __m512i selfv = _mm512_set1_epi32(int(self));
-                for (Index k = begin; k < end; k += 16)
-                {
-                  const unsigned left = end - k;
-                  const __mmask16 valid = left >= 16 ? __mmask16(0xFFFF) : __mmask16((1u << left) - 1u);
-                  const __m512 dx = _mm512_sub_ps(_mm512_maskz_loadu_ps(valid, px + k), qx);
-                  const __m512 dy = _mm512_sub_ps(_mm512_maskz_loadu_ps(valid, py + k), qy);
-                  const __m512 dz = _mm512_sub_ps(_mm512_maskz_loadu_ps(valid, pz + k), qz);
-                  const __m512 d2 = _mm512_fmadd_ps(dz, dz, _mm512_fmadd_ps(dy, dy, _mm512_mul_ps(dx, dx)));
-                  const __m512i j =
-                      id ? _mm512_maskz_loadu_epi32(valid, id + k) : _mm512_add_epi32(_mm512_set1_epi32(int(k)), lane);
-                  const __mmask16 hit = _mm512_mask_cmp_ps_mask(valid, d2, r2v, _CMP_LT_OQ) &
-                                        __mmask16(~_mm512_cmpeq_epi32_mask(j, selfv));
-                  _mm512_storeu_si512(out_j + used, _mm512_maskz_compress_epi32(hit, j));
-                  _mm512_storeu_ps(out_d2 + used, _mm512_maskz_compress_ps(hit, d2));
-                  used += std::size_t(_mm_popcnt_u32(hit));
-                }
-                return;
-              }
-#endif
               // Branch-free compaction: every candidate is written, only hits advance the cursor.
               // Once the particles are disordered the hit test is a coin toss for the branch
               // predictor; with a branch the search took 3x longer late in a dam break than on the
