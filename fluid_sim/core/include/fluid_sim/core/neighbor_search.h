@@ -46,6 +46,13 @@ public:
     return int(std::ceil(double(radius) / cell_ - 1e-9));
   }
 
+  /// The lower corner (m) of cell `cell` (a linear index as cellOf gives it).
+  Vec3d cellMin(Index cell) const
+  {
+    const std::size_t c = cell, nx = std::size_t(dims_[0]), ny = std::size_t(dims_[1]);
+    return origin_ + cell_ * Vec3d(double(c % nx), double(c / nx % ny), double(c / (nx * ny)));
+  }
+
   /// Cells along each axis (x, y, z); cells are ordered x fastest, then y, then z.
   int dim(int axis) const
   {
