@@ -183,6 +183,14 @@ void buildNeighborLists(const std::vector<Vec3>& queries, const std::vector<Grid
         if constexpr (kWeight)
           if (block_weight[slot].size() < bi.size()) block_weight[slot].resize(bi.size());
         std::size_t used = 0;
+        // Room in the staging for `len` more candidates past the cursor (every candidate is
+        // written; the vector path stores whole vectors, kSlack past the last).
+        auto stageRoom = [&](std::size_t len) {
+          if (bi.size() >= used + len + kSlack) return;
+          bi.resize(std::max(2 * bi.size(), used + len + kSlack + 256));
+          bf.resize(bi.size());
+          if constexpr (kWeight) block_weight[slot].resize(bi.size());
+        };
         const std::size_t i_end = std::min(n, (b + 1) * kBlock);
         std::vector<CellCandidates> cell_candidates(kVector ? sources.size() : 0);
         for (std::size_t i = b * kBlock; i < i_end; ++i)
@@ -199,13 +207,7 @@ void buildNeighborLists(const std::vector<Vec3>& queries, const std::vector<Grid
                                 Index end) {
             if constexpr (kVector)  // float only: a double build compiles no vector code
             {
-              const std::size_t len = end - begin;
-              if (bi.size() < used + len + kSlack)
-              {
-                bi.resize(std::max(2 * bi.size(), used + len + kSlack + 256));
-                bf.resize(bi.size());
-                if constexpr (kWeight) block_weight[slot].resize(bi.size());
-              }
+              stageRoom(end - begin);
               Index* const out_j = bi.data();
               Real* const out_d2 = bf.data();
               const __m512 qx = _mm512_set1_ps(xi.x()), qy = _mm512_set1_ps(xi.y()), qz = _mm512_set1_ps(xi.z());
@@ -315,13 +317,7 @@ void buildNeighborLists(const std::vector<Vec3>& queries, const std::vector<Grid
             }
 #endif
             src.grid->forEachRange(xi, reach[s], [&](Index begin, Index end) {
-              const std::size_t len = end - begin;
-              if (bi.size() < used + len + kSlack)
-              {
-                bi.resize(std::max(2 * bi.size(), used + len + kSlack + 256));
-                bf.resize(bi.size());
-                if constexpr (kWeight) block_weight[slot].resize(bi.size());
-              }
+              stageRoom(end - begin);
               Index* const out_j = bi.data();
               Real* const out_d2 = bf.data();
               // Branch-free compaction: every candidate is written, only hits advance the cursor.
