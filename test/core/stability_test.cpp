@@ -174,6 +174,25 @@ TEST(Stability, AFastBodyStrikingStillWaterStaysStableWithTheAdaptiveStep)
   }
 }
 
+TEST(Stability, ABlowUpNamesWhereItsParticleIsAndTheBodiesNearIt)
+{
+  // The plunger at 8 m/s with the fixed 4 ms step Eq. A15 no longer allows: it moves 1.6 spacings
+  // into the water per step and blows it up within a few steps. The report names the particle
+  // its reason is about (here the densest or the fastest, whichever check trips), where it is
+  // and what was around it, the plunger among its boundary neighbours.
+  SceneConfig s = plungerStrike(8.0, 0.0);
+  s.time_step.adaptive = false;
+  s.time_step.fixed = 0.004;
+  Simulation sim(s);
+  StepReport r;
+  for (int k = 0; k < 20 && !r.unstable; ++k) r = sim.step();
+  ASSERT_TRUE(r.unstable) << "the plunger did not blow the water up by t = " << sim.time() << " s";
+  std::printf("%s\n", r.reason.c_str());
+  EXPECT_NE(r.reason.find("; the particle that started the step "), std::string::npos) << r.reason;
+  EXPECT_NE(r.reason.find(" fluid neighbour"), std::string::npos) << r.reason;
+  EXPECT_NE(r.reason.find("'plunger' ("), std::string::npos) << r.reason;
+}
+
 class WarmStart : public ::testing::TestWithParam<BoundaryPressureMethod>
 {
 };

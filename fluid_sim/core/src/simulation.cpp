@@ -156,7 +156,9 @@ struct Simulation::Impl
     // 7. Blow-ups are reported and the state kept as it is for inspection; otherwise particles
     //    that left the domain are removed (step_checks.cpp). A free body that came out of its step
     //    non-finite is one too (it would spread to the water in the next step).
-    checkStability(fluid, scene, constants.mass, dt, rep);
+    const std::size_t culprit = checkStability(fluid, scene, constants.mass, dt, rep);
+    if (culprit != kNoParticle)
+      rep.reason += "; " + describeParticle(culprit, dt, scene.domain, fluid, neighbors, bodies);
     if (!body_fault.empty() && !rep.unstable)
     {
       rep.unstable = true;
