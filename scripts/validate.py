@@ -270,6 +270,16 @@ def f3(x, digits=3):
     return "%.*g" % (digits, x)
 
 
+def percent(x):
+    """A fraction as per cent; None (an unstable run's missing measure) stays None."""
+    return None if x is None else 100 * x
+
+
+def percent_text(x, decimals):
+    """A fraction as "12.3 %", or "-" for a measure an unstable run does not have."""
+    return "-" if x is None or not math.isfinite(x) else "%.*f %%" % (decimals, 100 * x)
+
+
 def md_table(header, rows):
     lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     for r in rows:
@@ -1087,10 +1097,10 @@ def case5(S):
     tab = []
     for r in sorted(rows, key=lambda r: (r["case"], r["spacing"], r["tolerance"], r["method"])):
         tab.append([r["case"], r["method"], "%g" % (1000 * r["spacing"]), "%g" % r["tolerance"], r["status"], r["fluid"],
-                    f3(r["sec_per_s"]), f3(r["iters"]), f3(100 * r["density_err"]),
-                    "%.1f %% / %.1f %% / %.1f %%" % (100 * r["front_err"], 100 * r["front_speed_err"], 100 * r["height_err"])
-                    if r["case"] == "dam" else "%.2f %% / %.2f %% / %.2f %%" % (
-                        100 * r["pressure_err"], 100 * r["force_err"], 100 * r["particle_pressure_err"])])
+                    f3(r["sec_per_s"]), f3(r["iters"]), f3(percent(r["density_err"])),
+                    " / ".join(percent_text(r[k], 1) for k in ("front_err", "front_speed_err", "height_err"))
+                    if r["case"] == "dam" else
+                    " / ".join(percent_text(r[k], 2) for k in ("pressure_err", "force_err", "particle_pressure_err"))])
     md.append("\n<details><summary>All runs</summary>\n\n" + md_table(
         ["case", "method", "spacing (mm)", "tolerance", "status", "fluid", "wall s / sim s", "iters/step",
          "density err %", "dam: front rms / front speed / height errors; deep: profile / floor force / particle "
