@@ -35,7 +35,6 @@ import json
 import os
 import re
 import signal
-import socket
 import subprocess
 import sys
 import tempfile
@@ -46,13 +45,9 @@ import rospy
 from fluid_msgs.msg import SolverStats
 from sensor_msgs.msg import PointCloud2
 
+from free_port import free_port  # this folder: a master port outside the kernel's ephemeral range
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-
-
-def free_port():
-    with socket.socket() as s:
-        s.bind(("", 0))
-        return s.getsockname()[1]
 
 
 def scene_with_spacing(scene, spacing, folder):

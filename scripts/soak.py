@@ -38,7 +38,6 @@ import os
 import random
 import re
 import signal
-import socket
 import subprocess
 import sys
 import threading
@@ -49,6 +48,8 @@ import rospy
 from fluid_msgs.msg import SolverStats
 from fluid_msgs.srv import StepSimulation
 from std_srvs.srv import SetBool, Trigger
+
+from free_port import free_port  # this folder: a master port outside the kernel's ephemeral range
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 NODE = "/fluid_sim"
@@ -77,12 +78,6 @@ def libexec(exe):
         if os.access(os.path.join(d, exe), os.X_OK):
             return os.path.join(d, exe)
     raise RuntimeError("%s not found (is build/devel/setup.bash sourced?)" % exe)
-
-
-def free_port():
-    with socket.socket() as s:
-        s.bind(("", 0))
-        return s.getsockname()[1]
 
 
 class Proc:

@@ -11,7 +11,8 @@ set -uo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
 # shellcheck source=../../scripts/ros_env.sh
 source "$ROOT/scripts/ros_env.sh"
-port=$((20000 + RANDOM % 20000))
+# A master port of its own, below the kernel's ephemeral range (scripts/free_port.py).
+port="$(/usr/bin/python3 "$ROOT/scripts/free_port.py")" || exit 1
 host="${ROS_HOSTNAME:-${ROS_IP:-localhost}}"
 export ROS_MASTER_URI="http://$host:$port"
 work="$(mktemp -d)"
