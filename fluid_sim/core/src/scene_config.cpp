@@ -92,6 +92,11 @@ std::string numberText(double v)
   return os.str();
 }
 
+std::string vectorText(const Vec3d& v)
+{
+  return "(" + numberText(v.x()) + ", " + numberText(v.y()) + ", " + numberText(v.z()) + ")";
+}
+
 namespace
 {
 constexpr double kMinTimeStep = 1e-7;  // s

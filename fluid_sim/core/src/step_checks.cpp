@@ -69,11 +69,6 @@ std::string describeParticle(std::size_t i, double dt, const AxisBox& domain, co
   const NeighborLists& ff = neighbors.fluid_fluid;
   const NeighborLists& fb = neighbors.fluid_boundary;
   if (i >= fluid.size() || i + 1 >= ff.offset.size() || i + 1 >= fb.offset.size()) return "";
-  const auto text = [](const Vec3d& p) {
-    std::ostringstream os;
-    os << "(" << p.x() << ", " << p.y() << ", " << p.z() << ") m";
-    return os.str();
-  };
   std::ostringstream os;
   // Eq. A16 backwards (the wall guard may have moved it a little): where the step took it from.
   const Vec3d start = fluid.x[i].cast<double>() - dt * fluid.v[i].cast<double>();
@@ -86,9 +81,10 @@ std::string describeParticle(std::size_t i, double dt, const AxisBox& domain, co
   }
   const Index wall_count = fb.offset[i + 1] - fb.offset[i];
   if (start.allFinite() && domain.contains(start))
-    os << "the particle that started the step at " << text(start);
+    os << "the particle that started the step at " << vectorText(start) << " m";
   else if (wall_count > 0)
-    os << "the particle that started the step next to the boundary particles around " << text(walls / wall_count);
+    os << "the particle that started the step next to the boundary particles around " << vectorText(walls / wall_count)
+       << " m";
   else
     os << "the particle";
   const Index fluid_count = ff.offset[i + 1] - ff.offset[i];

@@ -15,7 +15,6 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
-#include <sstream>
 #include <string>
 
 namespace fluid_sim
@@ -46,14 +45,12 @@ private:
 
 std::string text(double v)
 {
-  std::ostringstream os;
-  os << v;
-  return os.str();
+  return numberText(v);
 }
 
 std::string text(const Vec3d& v)
 {
-  return "(" + text(v.x()) + ", " + text(v.y()) + ", " + text(v.z()) + ")";
+  return vectorText(v);
 }
 
 [[noreturn]] void refuse(const std::string& message)

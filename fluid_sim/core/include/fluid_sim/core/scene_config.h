@@ -262,6 +262,8 @@ const char* toString(ViscosityModel model);
 
 /// A number as error messages print it (the stream's default: up to 6 significant digits).
 std::string numberText(double v);
+/// A vector as error messages print it: "(x, y, z)", each as numberText prints it.
+std::string vectorText(const Vec3d& v);
 
 struct ViscosityConfig
 {
