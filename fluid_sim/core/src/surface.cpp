@@ -5,6 +5,7 @@
 // so nothing that uses the core sees it.
 
 #include "fluid_sim/core/surface.h"
+#include "fluid_sim/core/scene_config.h"  // numberText, vectorText
 
 #include <openvdb/openvdb.h>
 #include <openvdb/tools/Filter.h>
