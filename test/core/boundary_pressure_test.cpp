@@ -5,7 +5,13 @@
 #include <functional>
 #include <random>
 
+#include "fluid_sim/core/bodies.h"
+#include "fluid_sim/core/boundary_pressure_methods.h"
+#include "fluid_sim/core/fluid_constants.h"
+#include "fluid_sim/core/fluid_fill.h"
 #include "fluid_sim/core/kernel.h"
+#include "fluid_sim/core/neighborhoods.h"
+#include "small_scene.h"
 
 using namespace fluid_sim;
 
@@ -283,4 +289,71 @@ TEST(MlsExtrapolation, RegularizedSlopesAreDampedAndContinuousWhereTheFallbackJu
   }
   EXPECT_TRUE(switched) << "the sweep should cross the fallback's threshold";
   EXPECT_GT(step_fallback, 10 * step_damped) << "fallback " << step_fallback << " Pa, damped " << step_damped << " Pa";
+}
+
+namespace
+{
+/// An extrapolation whose fit lists a test builds either way (the transpose of the fluid-boundary
+/// lists, or a search of their own) for the same particles.
+template <class Method>
+struct FitListsProbe : Method
+{
+  using Method::Method;
+  NeighborLists build(bool transpose)
+  {
+    this->findActive();
+    if (transpose)
+      this->transposeBoundaryLists();
+    else
+      this->searchFitLists();
+    this->coefficients_.resize(this->fit_lists_.pairs());
+    this->prepare();
+    return this->fit_lists_;
+  }
+  std::vector<Real> coefficients() const
+  {
+    return this->coefficients_;
+  }
+};
+
+template <class Method>
+void expectTransposeEqualsSearch(BoundaryPressureMethod method)
+{
+  // Water in a tank, stirred so that the fluid is off its lattice and the rows are uneven.
+  SceneConfig scene = test::waterTank(0.02, Vec3d(0.3, 0.2, 0.3), 0.12);
+  scene.solver.boundary_pressure = method;
+  const FluidConstants constants(scene);
+  BodySet bodies(scene);
+  FluidParticles fluid;
+  fillFluid(scene, bodies, fluid);
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<Real> jitter(Real(-0.006), Real(0.006));
+  for (Vec3& x : fluid.x) x += Vec3(jitter(rng), jitter(rng), jitter(rng));
+  Neighborhoods neighbors(scene, constants.kernel);
+  neighbors.sortFluid(fluid);
+  neighbors.build(fluid, bodies);
+  ASSERT_GT(neighbors.fluid_boundary.pairs(), 1000u);
+  const BoundaryPressureInputs in{scene, constants, fluid, bodies, neighbors};
+  FitListsProbe<Method> searched(in), transposed(in);
+  const NeighborLists a = searched.build(false), b = transposed.build(true);
+  EXPECT_EQ(a.offset, b.offset);
+  EXPECT_EQ(a.index, b.index);
+  EXPECT_EQ(a.weight, b.weight);  // bit for bit: the same r^2 and the same kernel
+  EXPECT_EQ(searched.coefficients(), transposed.coefficients());
+  // The diagonal's feedback (Eq. A4b) reads c_bi through the transpose's map or by bisection.
+  std::size_t with_feedback = 0;
+  for (std::size_t i = 0; i < fluid.size(); ++i)
+  {
+    const Vec3 fa = searched.feedbackVector(i, fluid.x[i]), fb = transposed.feedbackVector(i, fluid.x[i]);
+    EXPECT_EQ(fa, fb) << "fluid particle " << i;
+    with_feedback += fa != Vec3::Zero();
+  }
+  EXPECT_GT(with_feedback, fluid.size() / 10);
+}
+}  // namespace
+
+TEST(ExtrapolationFitLists, TheTransposeOfTheBoundaryListsEqualsTheFitsOwnSearch)
+{
+  expectTransposeEqualsSearch<MlsBoundaryPressure>(BoundaryPressureMethod::Mls);
+  expectTransposeEqualsSearch<SphBoundaryPressure>(BoundaryPressureMethod::SphExtrapolation);
 }

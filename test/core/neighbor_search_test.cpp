@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <functional>
 #include <random>
 
 using namespace fluid_sim;
@@ -130,6 +131,38 @@ TEST(NeighborSearch, CrossQueryWithIdsAndLargerRadiusEqualsBruteForce)
         queries, grid, sorted, grid.order(), r, false, [](Real) { return Real(1); }, NoPairValue{}, lists);
     EXPECT_EQ(rowsOf(lists), bruteForce(queries, pts, r, false)) << "radius " << r;
   }
+}
+
+TEST(NeighborSearch, RowsOverTheSortedPointsListThemInAscendingOrder)
+{
+  // The extrapolations look a fluid particle up in a boundary particle's fit row by bisection
+  // (ExtrapolatedBoundaryPressure::feedbackVector): a row over points in grid order, indexed by
+  // their position there, must list them in ascending order, for queries in any order (the
+  // boundary queries) and in cell order (the runs shared by a cell's queries), at a reach of one
+  // cell and of two.
+  const std::vector<Vec3> pts = randomPoints(3000, 6);
+  const Real cell = Real(0.05);
+  UniformGrid grid(Vec3d(-0.5, -0.5, -0.5), Vec3d(0.3, 0.3, 0.3), cell, 1);
+  grid.build(pts);
+  const std::vector<Vec3> sorted = inGridOrder(grid, pts);
+  grid.build(sorted);
+  const std::vector<Vec3> scattered = randomPoints(700, 7);
+  for (const std::vector<Vec3>* queries : {&scattered, &sorted})
+    for (Real r : {cell, Real(1.5) * cell})
+    {
+      NeighborLists lists;
+      buildNeighborLists(
+          *queries, grid, sorted, {}, r, false, NoPairValue{}, [](Real d2) { return d2; }, lists);
+      std::size_t pairs = 0;
+      for (std::size_t i = 0; i < lists.rows(); ++i)
+      {
+        const auto first = lists.index.begin() + lists.offset[i], last = lists.index.begin() + lists.offset[i + 1];
+        EXPECT_TRUE(std::adjacent_find(first, last, std::greater_equal<Index>()) == last)
+            << "row " << i << " of " << lists.rows() << ", radius " << r;
+        pairs += std::size_t(last - first);
+      }
+      EXPECT_GT(pairs, 2 * lists.rows()) << "the rows must hold enough pairs to show an order";
+    }
 }
 
 TEST(NeighborSearch, RowsStayRightOverSeveralWavesAndAChangingQueryCount)

@@ -229,14 +229,19 @@ public:
     for (Index k = fb.offset[i]; k < fb.offset[i + 1]; ++k)
     {
       const Index b = fb.index[k];
-      const Index q = row_of_[b];
       Real c = 0;
-      for (Index e = fit_lists_.offset[q]; e < fit_lists_.offset[q + 1]; ++e)
-        if (fit_lists_.index[e] == Index(i))
-        {
-          c = coefficients_[e];
-          break;
-        }
+      if (!fb_to_fit_.empty())  // the fit lists are the transpose of fb: every pair has its entry
+        c = coefficients_[fb_to_fit_[k]];
+      else
+      {
+        // A fit row lists its fluid particles in ascending order (the search visits the sorted
+        // fluid's cell ranges in order): i is found by bisection.
+        const Index q = row_of_[b];
+        const Index* const first = fit_lists_.index.data() + fit_lists_.offset[q];
+        const Index* const last = fit_lists_.index.data() + fit_lists_.offset[q + 1];
+        const Index* const at = std::lower_bound(first, last, Index(i));
+        if (at != last && *at == Index(i)) c = coefficients_[std::size_t(at - fit_lists_.index.data())];
+      }
       sum += (rho0 * volume_[b] * c * fb.grad_factor[k]) * (xi - xb_[b]);
     }
     return sum;
@@ -259,6 +264,14 @@ protected:
     return wall;
   }
 
+  /// buildLists()'s parts: the active boundary particles (active_, row_of_); then the fit lists
+  /// (rows active_, entries in ascending fluid order, W of the fit radius per pair) from a search
+  /// of their own, or as the transpose of the fluid-boundary lists (the same pairs and W when the
+  /// fit radius is the kernel support), which also maps every fb pair to its entry (fb_to_fit_).
+  void findActive();
+  void searchFitLists();
+  void transposeBoundaryLists();
+
   /// The coefficient figures of the step report (smallest and largest c_bf, largest and mean
   /// sum_f |c_bf| over the active boundary particles), from the coefficients of prepare().
   void coefficientFigures();
@@ -276,6 +289,13 @@ protected:
   std::vector<Real> coefficients_;                          // c_bf per entry of fit_lists_ (unit-less)
   std::unique_ptr<std::atomic<std::uint8_t>[]> is_active_;  // per boundary particle (scratch)
   std::vector<Index> row_of_;                               // per boundary particle: its row in active_ (active only)
+  // Per fluid-boundary pair (fb's entries): its entry in fit_lists_, when those are fb's transpose
+  // (transposeBoundaryLists()); empty when the fit lists come from a search of their own.
+  std::vector<Index> fb_to_fit_;
+  // The transpose's fixed fluid ranges (8: both cores busy, a few hundred kB of counts at 195 k),
+  // and per range and row its count, then its next slot (scratch).
+  static constexpr std::size_t kTransposeChunks = 8;
+  std::vector<Index> transpose_slot_;
   double c_min_ = 0, c_max_ = 0, abs_sum_max_ = 0, abs_sum_mean_ = 0;  // coefficientFigures()
   std::vector<Vec3> queries_;                                          // m, positions of active_ (scratch)
 };
