@@ -292,8 +292,9 @@ protected:
   // Per fluid-boundary pair (fb's entries): its entry in fit_lists_, when those are fb's transpose
   // (transposeBoundaryLists()); empty when the fit lists come from a search of their own.
   std::vector<Index> fb_to_fit_;
-  // The transpose's fixed fluid ranges (8: both cores busy, a few hundred kB of counts at 195 k),
-  // and per range and row its count, then its next slot (scratch).
+  // The transpose's fixed fluid ranges (8: work for every core of a small machine, at 32 B of
+  // counts per active boundary particle), and per range and row its count, then its next slot
+  // (scratch).
   static constexpr std::size_t kTransposeChunks = 8;
   std::vector<Index> transpose_slot_;
   double c_min_ = 0, c_max_ = 0, abs_sum_max_ = 0, abs_sum_mean_ = 0;  // coefficientFigures()
