@@ -44,16 +44,6 @@ private:
   std::vector<openvdb::Vec3R> positions_;
 };
 
-std::string text(double v)
-{
-  return numberText(v);
-}
-
-std::string text(const Vec3d& v)
-{
-  return vectorText(v);
-}
-
 [[noreturn]] void refuse(const std::string& message)
 {
   throw ConfigError("surface", message);
@@ -62,22 +52,22 @@ std::string text(const Vec3d& v)
 void checkOptions(double spacing, const SurfaceOptions& o)
 {
   // Written as !(in range) so that NaN is refused too.
-  if (!(spacing > 0.0 && std::isfinite(spacing))) refuse("spacing = " + text(spacing) + " m: must be > 0");
+  if (!(spacing > 0.0 && std::isfinite(spacing))) refuse("spacing = " + numberText(spacing) + " m: must be > 0");
   if (!(o.particle_radius >= 0.5 && o.particle_radius <= 5.0))
-    refuse("particle_radius = " + text(o.particle_radius) + " spacings: out of range [0.5, 5]");
+    refuse("particle_radius = " + numberText(o.particle_radius) + " spacings: out of range [0.5, 5]");
   // A sphere narrower than a voxel is not resolved (ParticlesToLevelSet leaves such spheres out:
   // every particle would vanish).
   if (!(o.voxel_size >= 0.05 && o.voxel_size <= o.particle_radius))
-    refuse("voxel_size = " + text(o.voxel_size) +
-           " spacings: out of range [0.05, particle_radius = " + text(o.particle_radius) + "]");
+    refuse("voxel_size = " + numberText(o.voxel_size) +
+           " spacings: out of range [0.05, particle_radius = " + numberText(o.particle_radius) + "]");
   if (!(o.drop_radius == 0.0 || (o.drop_radius >= 0.25 && o.drop_radius <= o.particle_radius)))
-    refuse("drop_radius = " + text(o.drop_radius) +
-           " spacings: must be 0 or in [0.25, particle_radius = " + text(o.particle_radius) + "]");
+    refuse("drop_radius = " + numberText(o.drop_radius) +
+           " spacings: must be 0 or in [0.25, particle_radius = " + numberText(o.particle_radius) + "]");
   if (o.smoothing_passes < 0 || o.smoothing_passes > 20)
     refuse("smoothing_passes = " + std::to_string(o.smoothing_passes) + ": out of range [0, 20]");
   if (!(o.adaptivity >= 0.0 && o.adaptivity <= 1.0))
-    refuse("adaptivity = " + text(o.adaptivity) + ": out of range [0, 1]");
-  if (!(o.max_voxels >= 1.0)) refuse("max_voxels = " + text(o.max_voxels) + ": must be >= 1");
+    refuse("adaptivity = " + numberText(o.adaptivity) + ": out of range [0, 1]");
+  if (!(o.max_voxels >= 1.0)) refuse("max_voxels = " + numberText(o.max_voxels) + ": must be >= 1");
 }
 
 /// OpenVDB's registry of grid and metadata types; idempotent and thread-safe, once per process.
@@ -135,13 +125,14 @@ SurfaceMesh reconstructSurface(const std::vector<Vec3>& positions, double spacin
   double voxels = 1.0;
   for (int a = 0; a < 3; ++a) voxels *= std::ceil((hi[a] - lo[a] + 2.0 * pad) / dx) + 1.0;
   if (!(voxels <= options.max_voxels))
-    refuse("the particles' bounding box " + text(lo) + " to " + text(hi) + " m needs " + text(voxels) + " voxels of " +
-           text(dx) + " m, more than the budget of " + text(options.max_voxels) +
+    refuse("the particles' bounding box " + vectorText(lo) + " to " + vectorText(hi) + " m needs " +
+           numberText(voxels) + " voxels of " + numberText(dx) + " m, more than the budget of " +
+           numberText(options.max_voxels) +
            " (SurfaceOptions::max_voxels; a particle far from the others, or a voxel too fine for the water)");
   const double far = std::max(lo.cwiseAbs().maxCoeff(), hi.cwiseAbs().maxCoeff()) + pad;  // m
   if (!(far / dx < 1073741824.0))
-    refuse("a particle " + text(far) + " m from the origin is " + text(far / dx) + " voxels of " + text(dx) +
-           " m away, beyond OpenVDB's coordinate range (2^30 voxels)");
+    refuse("a particle " + numberText(far) + " m from the origin is " + numberText(far / dx) + " voxels of " +
+           numberText(dx) + " m away, beyond OpenVDB's coordinate range (2^30 voxels)");
 
   initializeOpenVdb();
   // Eq. A28: phi_0(x) = min_i |x - x_i| - r (m), the signed distance to the union of the spheres,
