@@ -411,7 +411,7 @@ TEST(NeighborSearch, RowSumIsTheSumOfTheStoredValuesInRowOrder)
   // The density (Eq. A1) takes the fluid-fluid W summed per row by the search (RowSum) instead of
   // the stored values: the same rows, no per-pair array, and each sum equal to adding the values
   // a stored build gives, in row order, bit for bit. Three waves of blocks, rebuilt with fewer
-  // queries (the staging holds one row at a time).
+  // queries (the staging holds 64 rows at a time).
   const std::vector<Vec3> pts = randomPoints(2000, 8);
   const Real r = Real(0.06);
   UniformGrid grid(Vec3d(-0.5, -0.5, -0.5), Vec3d(0.3, 0.3, 0.3), r, 1);

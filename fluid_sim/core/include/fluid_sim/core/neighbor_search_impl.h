@@ -57,7 +57,7 @@ void buildNeighborLists(const std::vector<Vec3>& queries, const std::vector<Grid
   constexpr bool kFactor = !std::is_same_v<std::decay_t<PairGradFactor>, NoPairValue>;
   constexpr bool kRowSum = IsRowSum<std::decay_t<PairWeight>>::value;  // W summed per row, not stored
   constexpr bool kWeight = !std::is_same_v<std::decay_t<PairWeight>, NoPairValue> && !kRowSum;  // W per pair
-  // W is staged per block when stored, per row when only summed (one row: a few hundred bytes).
+  // W is staged per block when stored, per kValueRows rows when only summed (a few KB).
   constexpr bool kStage = kWeight || kRowSum;
   static_assert(kFactor || kWeight || kRowSum, "buildNeighborLists: ask for at least one value per pair");
   (void)pairGradFactor;
@@ -84,6 +84,7 @@ void buildNeighborLists(const std::vector<Vec3>& queries, const std::vector<Grid
   // with 64 it is one wave, as fast as before, and the 195 k peak is 482 instead of 461 B per
   // fluid particle (769 before the waves; docs/performance.md).
   constexpr std::size_t kWave = 64;
+  constexpr std::size_t kValueRows = 64;  // rows whose pairs' values are computed in one loop
   const std::size_t blocks = (n + kBlock - 1) / kBlock;
   const std::size_t slots = std::min(blocks, kWave);
   // Every row's count is written below, so the offsets need no clearing; resize (not assign)
@@ -193,6 +194,49 @@ void buildNeighborLists(const std::vector<Vec3>& queries, const std::vector<Grid
         };
         const std::size_t i_end = std::min(n, (b + 1) * kBlock);
         std::vector<CellCandidates> cell_candidates(kVector ? sources.size() : 0);
+        // Values for the hits of the rows [row_from, row_to), r^2 overwritten by the factor in
+        // place: one loop over kValueRows rows' pairs, not one per row (a row's ~28 pairs left
+        // the vector loop's start, its masked end and its exit as most of the work: the values
+        // took 34 % of the fluid-fluid search, docs/performance.md). The row sums' staging holds
+        // those rows only (a few KB, from its index 0); stored weights are staged per block.
+        std::size_t row_from = b * kBlock, pair_from = 0;
+        auto finishRows = [&](std::size_t row_to) {
+          const std::size_t w_base = kRowSum ? pair_from : 0;
+          if constexpr (kRowSum)
+            if (block_weight[slot].size() < used - pair_from) block_weight[slot].resize(2 * (used - pair_from));
+          if constexpr (kStage && kFactor)
+          {
+            Real* const bw = block_weight[slot].data();
+            for (std::size_t k = pair_from; k < used; ++k)
+            {
+              const Real d2 = bf[k];
+              bw[k - w_base] = weightOf(d2);
+              bf[k] = pairGradFactor(d2);
+            }
+          }
+          else if constexpr (kStage)
+          {
+            Real* const bw = block_weight[slot].data();
+            for (std::size_t k = pair_from; k < used; ++k) bw[k - w_base] = weightOf(bf[k]);
+          }
+          else
+          {
+            for (std::size_t k = pair_from; k < used; ++k) bf[k] = pairGradFactor(bf[k]);
+          }
+          if constexpr (kRowSum)  // each row in its own order, one add per pair on values still in cache
+          {
+            const Real* const bw = block_weight[slot].data();
+            std::size_t k = 0;
+            for (std::size_t i = row_from; i < row_to; ++i)
+            {
+              Real sum = 0;
+              for (const std::size_t row_end = k + out.offset[i + 1]; k < row_end; ++k) sum += bw[k];
+              out.weight_sum[i] = sum;
+            }
+          }
+          row_from = row_to;
+          pair_from = used;
+        };
         for (std::size_t i = b * kBlock; i < i_end; ++i)
         {
           const Vec3 xi = queries[i];
@@ -335,38 +379,8 @@ void buildNeighborLists(const std::vector<Vec3>& queries, const std::vector<Grid
               }
             });
           }
-          // Values for the hits only (r^2 is overwritten by the factor in place).
-          // A row sum's staging holds this row only (from its index 0).
-          const std::size_t w_base = kRowSum ? row_start : 0;
-          if constexpr (kRowSum)
-            if (block_weight[slot].size() < used - row_start) block_weight[slot].resize(2 * (used - row_start));
-          if constexpr (kStage && kFactor)
-          {
-            Real* const bw = block_weight[slot].data();
-            for (std::size_t k = row_start; k < used; ++k)
-            {
-              const Real d2 = bf[k];
-              bw[k - w_base] = weightOf(d2);
-              bf[k] = pairGradFactor(d2);
-            }
-          }
-          else if constexpr (kStage)
-          {
-            Real* const bw = block_weight[slot].data();
-            for (std::size_t k = row_start; k < used; ++k) bw[k - w_base] = weightOf(bf[k]);
-          }
-          else
-          {
-            for (std::size_t k = row_start; k < used; ++k) bf[k] = pairGradFactor(bf[k]);
-          }
-          if constexpr (kRowSum)  // in row order, one add per pair on values still in cache
-          {
-            const Real* const bw = block_weight[slot].data();
-            Real sum = 0;
-            for (std::size_t k = 0; k < used - row_start; ++k) sum += bw[k];
-            out.weight_sum[i] = sum;
-          }
           out.offset[i + 1] = Index(used - row_start);
+          if (i + 1 - row_from == kValueRows || i + 1 == i_end) finishRows(i + 1);
         }
         block_used[slot] = used;
       }
