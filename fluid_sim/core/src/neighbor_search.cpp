@@ -16,16 +16,6 @@ UniformGrid::UniformGrid(const Vec3d& min, const Vec3d& max, double cell_size, i
   // scene without moving bodies) costs nothing.
 }
 
-Index UniformGrid::cellOf(const Vec3& p) const
-{
-  const double fx = (double(p.x()) - origin_.x()) * inv_cell_;
-  const double fy = (double(p.y()) - origin_.y()) * inv_cell_;
-  const double fz = (double(p.z()) - origin_.z()) * inv_cell_;
-  // The negated comparisons also reject NaN.
-  if (!(fx >= 0 && fy >= 0 && fz >= 0 && fx < dims_[0] && fy < dims_[1] && fz < dims_[2])) return kOutside;
-  return Index(int(fx) + std::size_t(dims_[0]) * (int(fy) + std::size_t(dims_[1]) * int(fz)));
-}
-
 void UniformGrid::build(const std::vector<Vec3>& points)
 {
   const std::size_t n = points.size();

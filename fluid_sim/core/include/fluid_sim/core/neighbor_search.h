@@ -20,8 +20,16 @@ public:
   /// Covers [min, max] (m) plus `margin` cells on every side; cell edge `cell_size` (m).
   UniformGrid(const Vec3d& min, const Vec3d& max, double cell_size, int margin = 1);
 
-  /// Linear cell index of `p`, or kOutside.
-  Index cellOf(const Vec3& p) const;
+  /// Linear cell index of `p`, or kOutside. Inline: the search asks it once per query and point set.
+  Index cellOf(const Vec3& p) const
+  {
+    const double fx = (double(p.x()) - origin_.x()) * inv_cell_;
+    const double fy = (double(p.y()) - origin_.y()) * inv_cell_;
+    const double fz = (double(p.z()) - origin_.z()) * inv_cell_;
+    // The negated comparisons also reject NaN.
+    if (!(fx >= 0 && fy >= 0 && fz >= 0 && fx < dims_[0] && fy < dims_[1] && fz < dims_[2])) return kOutside;
+    return Index(int(fx) + std::size_t(dims_[0]) * (int(fy) + std::size_t(dims_[1]) * int(fz)));
+  }
 
   /// Counting sort of `points` by cell. Afterwards `order()[k]` is the index (into `points`) of the
   /// k-th point in cell order, and cellRange(c) gives the range of k for cell c. Points outside
