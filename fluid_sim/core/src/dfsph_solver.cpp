@@ -448,9 +448,10 @@ private:
   ///   sum_j g_ij (f_i - f_j).(x_i - x_j) = f_i . G_i - [(x_i - o) . sum_j g_ij f_j - sum_j g_ij f_j.(x_j - o)],
   /// G_i = sum_j grad W_ij (fluid_grad_, once per step), f_j.(x_j - o) in f's padding lane
   /// (laneDot()). Each pair then costs f_j's 16 bytes instead of f_j's and x_j's: the sweep's
-  /// divergence pass took a fifth less time (docs/performance.md). The origin o lies inside the
-  /// fluid's extent, so the bracket's cancellation loses no more than |x - o| / h float steps
-  /// wherever the scene is (1e-4 of the stopping tolerance's source 40 m from the origin).
+  /// divergence pass took a fifth less time (docs/performance.md). The bracket cancels to the
+  /// size of one term: it loses about |x - o| / h float steps, and o lies inside the fluid's
+  /// extent, so that loss does not grow with the scene's distance from the world origin (with o
+  /// at the world origin, 40 m away, it was still 1e-4 of the stopping tolerance's source).
   Real fluidDivergence(std::size_t i, const Vec4Array& f) const
   {
 #ifdef FLUID_SIM_QUAD_PAIRS

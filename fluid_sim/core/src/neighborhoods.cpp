@@ -46,7 +46,11 @@ void Neighborhoods::BoundaryGroup::rebuild(const std::vector<Vec3>& x, std::uint
     sorted.resize(inside);
     for (std::size_t k = 0; k < inside; ++k) sorted[k] = gathered[grid.order()[k]];
   }
-  if (!keep_gathered) std::vector<Vec3>().swap(gathered);
+  if (!keep_gathered)
+  {
+    std::vector<Vec3>().swap(gathered);
+    grid.releasePointArrays();  // ids and the sorted positions hold what the searches need
+  }
   version = new_version;
 }
 

@@ -31,6 +31,15 @@ public:
     return Index(int(fx) + std::size_t(dims_[0]) * (int(fy) + std::size_t(dims_[1]) * int(fz)));
   }
 
+  /// Frees the last build's per-point arrays (order() is then empty until the next build); the
+  /// cells stay as built. For a point set sorted once whose order was copied out (the static
+  /// walls: 8 B per wall particle).
+  void releasePointArrays()
+  {
+    std::vector<Index>().swap(cell_of_point_);
+    std::vector<Index>().swap(order_);
+  }
+
   /// Counting sort of `points` by cell. Afterwards `order()[k]` is the index (into `points`) of the
   /// k-th point in cell order, and cellRange(c) gives the range of k for cell c. Points outside
   /// the grid are put last and belong to no cell.

@@ -186,11 +186,19 @@ void buildNeighborLists(const std::vector<Vec3>& queries, const std::vector<Grid
         std::size_t used = 0;
         // Room in the staging for `len` more candidates past the cursor (every candidate is
         // written; the vector path stores whole vectors, kSlack past the last).
+        // A slot grows by a quarter, reserved exactly (resize alone doubles a vector's capacity):
+        // the staging is kept from step to step, and doubling left up to twice a wave's pairs
+        // resident (at 1 M particles 8 MB, 8 B per fluid particle, docs/performance.md).
         auto stageRoom = [&](std::size_t len) {
           if (bi.size() >= used + len + kSlack) return;
-          bi.resize(std::max(2 * bi.size(), used + len + kSlack + 256));
-          bf.resize(bi.size());
-          if constexpr (kWeight) block_weight[slot].resize(bi.size());
+          const std::size_t size = std::max(bi.size() + bi.size() / 4, used + len + kSlack + 256);
+          auto grow = [size](auto& v) {
+            v.reserve(size);
+            v.resize(size);
+          };
+          grow(bi);
+          grow(bf);
+          if constexpr (kWeight) grow(block_weight[slot]);
         };
         const std::size_t i_end = std::min(n, (b + 1) * kBlock);
         std::vector<CellCandidates> cell_candidates(kVector ? sources.size() : 0);

@@ -88,8 +88,8 @@ private:
     std::vector<Index> ids;                     // boundary particle index of each sorted point
     std::uint64_t version = ~std::uint64_t(0);  // BodySet version the arrays were built from
     /// Sorts the members' positions `x` by the grid. `keep_gathered`: keep the gathering array's
-    /// storage for the next rebuild (a moving group, every step) instead of freeing it (the static
-    /// walls, once: 12 B per wall particle).
+    /// and the grid's per-point storage for the next rebuild (a moving group, every step) instead
+    /// of freeing them (the static walls, once: 20 B per wall particle).
     void rebuild(const std::vector<Vec3>& x, std::uint64_t new_version, bool keep_gathered);
     GridPoints points() const;
   };
